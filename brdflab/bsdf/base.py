@@ -1,0 +1,71 @@
+"""The vectorised BSDF interface shared by all materials (spec §10.1).
+
+All directions are unit vectors of shape (N, 3) in the local shading frame (z = shading normal,
+cos θ = z). ``wi`` points toward the previous vertex (the camera), ``wo`` toward the light/next vertex.
+
+* ``eval(wi, wo, uv)`` → f(wi, wo) of shape (N, 3), **without** the cosine; 0 unless cos θi > 0 and
+  cos θo > 0 (one-sided).
+* ``pdf(wi, wo, uv)`` → solid-angle density (N,) of ``wo`` as realised by ``sample``.
+* ``sample(wi, u, uv)`` → :class:`BSDFSample` with ``wo``, ``pdf`` and ``weight`` = f·cos θo / pdf,
+  exactly ``eval·cos/pdf``; 0 where the sample failed (cos θi ≤ 0, wo below the surface, pdf = 0).
+  ``u`` has shape (N, 3): (ξ1, ξ2) drive the direction warp, ξ3 the lobe choice. All randomness comes
+  from the caller.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from brdflab.texture import Texture
+
+
+class BSDFSample(NamedTuple):
+    """Result of :meth:`BSDF.sample` for N queries."""
+
+    wo: np.ndarray
+    """(N, 3) sampled local directions."""
+    weight: np.ndarray
+    """(N, 3) f·cos θo / pdf (0 where sampling failed)."""
+    pdf: np.ndarray
+    """(N,) solid-angle density of ``wo``."""
+
+
+class BSDF:
+    """Base class of vectorised BSDFs (see module docstring for the contract)."""
+
+    #: Registered Nori type name.
+    type_name: str = ""
+    #: Texture slots accepted as ``<texture name="...">`` children.
+    texture_slots: tuple[str, ...] = ()
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """Return f(wi, wo), shape (N, 3), without the cosine."""
+        raise NotImplementedError
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """Return the solid-angle density (N,) with which :meth:`sample` produces ``wo``."""
+        raise NotImplementedError
+
+    def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
+        """Sample ``wo`` given ``wi`` and uniforms ``u`` of shape (N, 3)."""
+        raise NotImplementedError
+
+    def set_texture(self, slot: str, texture: Texture) -> None:
+        """Attach a child texture to ``slot`` (one of :attr:`texture_slots`)."""
+        setattr(self, slot, texture)
+
+
+def cos_weight(f: np.ndarray, wo: np.ndarray, pdf: np.ndarray) -> np.ndarray:
+    """Return f·cos θo / pdf (N, 3), 0 where pdf ≤ 0 or cos θo ≤ 0 or the result is not finite."""
+    cos_o = wo[:, 2]
+    ok = (pdf > 0) & (cos_o > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = f * np.where(ok, cos_o / np.where(ok, pdf, 1.0), 0.0)[:, None]
+    return np.where(np.isfinite(w), w, 0.0)
+
+
+def uv_or_zeros(uv: np.ndarray | None, n: int) -> np.ndarray:
+    """Return ``uv`` or an (n, 2) array of zeros when no uv is supplied (constant textures)."""
+    return np.zeros((n, 2)) if uv is None else uv

@@ -1,0 +1,1 @@
+"""Emitters: mesh area lights, point lights and environment maps."""

@@ -1,0 +1,1 @@
+"""Integrators: ``normals``, ``direct_ems``, ``direct_mats``, ``direct_mis`` (shared helpers in common)."""

@@ -1,0 +1,211 @@
+"""Helpers shared by the direct-illumination integrators (spec §13).
+
+Batches flow one way: camera rays → :func:`trace_camera` (closest hits, background for misses, L_e
+for rays that hit an emitter — the *emitter-hit rule*: stop there) → :class:`ShadingPoints` (the
+compacted surface hits with their local frames) → emitter samples (:func:`sample_lights`) and/or BSDF
+samples (:func:`sample_bsdfs`) → radiance per camera sample. Every function works on whole batches;
+Python loops run over materials and emitters, never over rays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from brdflab.math.frame import dot, frame_from_normal, to_local, to_world
+from brdflab.scene.geometry import Hits
+from brdflab.scene.properties import PropertyList
+
+
+class Integrator:
+    """Base class: ``li`` returns the radiance (N, 3) carried by N camera rays."""
+
+    type_name = ""
+    #: Warn when the scene has no emitter (the image would be black).
+    needs_emitters = True
+    KNOWN: dict[str, str] = {}
+
+    @classmethod
+    def from_properties(cls, props: PropertyList) -> Integrator:
+        """Build from an ``<integrator>`` property list (the direct integrators take none)."""
+        props.check_known(cls.KNOWN)
+        return cls()
+
+    def li(self, scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Radiance along camera rays (o, d) with t ≤ tmax."""
+        raise NotImplementedError
+
+
+@dataclass
+class ShadingPoints:
+    """Compacted camera hits on non-emitting surfaces, with local shading frames."""
+
+    index: np.ndarray
+    """(M,) index of each point in the camera batch."""
+    p: np.ndarray
+    ng: np.ndarray
+    ns: np.ndarray
+    s: np.ndarray
+    t: np.ndarray
+    uv: np.ndarray
+    wi: np.ndarray
+    """(M, 3) local direction toward the camera."""
+    bsdf: np.ndarray
+    """(M,) BSDF index."""
+
+    def local(self, w: np.ndarray) -> np.ndarray:
+        """World directions → local shading frame."""
+        return to_local(w, self.s, self.t, self.ns)
+
+    def world(self, w: np.ndarray) -> np.ndarray:
+        """Local directions → world."""
+        return to_world(w, self.s, self.t, self.ns)
+
+
+def background(scene, d: np.ndarray) -> np.ndarray:
+    """Radiance of escaping rays: the environment, or black."""
+    if scene.environment is None or len(d) == 0:
+        return np.zeros((len(d), 3))
+    return scene.environment.eval(d)
+
+
+def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, Hits, ShadingPoints]:
+    """Trace camera rays; apply the miss and emitter-hit rules; return (L, hits, shading points)."""
+    hits = scene.geometry.intersect(o, d, tmax)
+    L = np.zeros((len(o), 3))
+    miss = ~hits.valid
+    if miss.any():
+        L[miss] = background(scene, d[miss])
+    em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
+    for e in np.unique(em[em >= 0]):
+        sel = np.flatnonzero(em == e)
+        L[sel] = scene.emitters[e].eval_hit(hits.ns[sel], hits.uv[sel], d[sel])
+    return L, hits, shading_points(scene, hits, d, np.flatnonzero(hits.valid & (em < 0)))
+
+
+def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
+    """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints`."""
+    ns = hits.ns[idx]
+    s, t = frame_from_normal(ns)
+    wi = to_local(-d[idx], s, t, ns)
+    return ShadingPoints(idx, hits.p[idx], hits.ng[idx], ns, s, t, hits.uv[idx], wi,
+                         scene.mesh_bsdf[hits.mesh[idx]])
+
+
+def by_group(ids: np.ndarray):
+    """Yield (group id, indices) for each distinct non-negative id (a loop over materials/emitters)."""
+    if len(ids) == 0:
+        return
+    order = np.argsort(ids, kind="stable")
+    sorted_ids = ids[order]
+    bounds = np.flatnonzero(np.diff(sorted_ids)) + 1
+    for chunk in np.split(order, bounds):
+        g = int(ids[chunk[0]])
+        if g >= 0:
+            yield g, chunk
+
+
+def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False):
+    """f(wi, wo) (M, 3) for local ``wo``; with ``with_pdf`` also the BSDF sampling density (M,)."""
+    f = np.zeros((len(wo), 3))
+    pdf = np.zeros(len(wo)) if with_pdf else None
+    for b, sel in by_group(sp.bsdf):
+        bsdf = scene.bsdfs[b]
+        f[sel] = bsdf.eval(sp.wi[sel], wo[sel], sp.uv[sel])
+        if with_pdf:
+            pdf[sel] = bsdf.pdf(sp.wi[sel], wo[sel], sp.uv[sel])
+    return (f, pdf) if with_pdf else f
+
+
+def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One BSDF sample per point: (local wo, weight f·cos/pdf, pdf)."""
+    m = len(u)
+    wo = np.zeros((m, 3))
+    weight = np.zeros((m, 3))
+    pdf = np.zeros(m)
+    for b, sel in by_group(sp.bsdf):
+        r = scene.bsdfs[b].sample(sp.wi[sel], u[sel], sp.uv[sel])
+        wo[sel], weight[sel], pdf[sel] = r.wo, r.weight, r.pdf
+    return wo, weight, pdf
+
+
+@dataclass
+class LightSamples:
+    """One emitter sample per shading point, visibility already tested."""
+
+    wi: np.ndarray
+    """(M, 3) world direction toward the light."""
+    radiance: np.ndarray
+    """(M, 3) incident radiance, 0 where occluded or invalid."""
+    pdf: np.ndarray
+    """(M,) solid-angle pdf **including** the selection probability (1·p_sel for delta lights)."""
+    delta: np.ndarray
+    """(M,) True for delta (point) lights."""
+
+
+def choose_emitters(scene, u: np.ndarray) -> np.ndarray:
+    """Emitter index per uniform ``u`` by the scene's selection pmf (uniform by default)."""
+    k = np.searchsorted(scene.emitter_cdf, u, side="right")
+    return np.minimum(k, len(scene.emitters) - 1)
+
+
+def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
+    """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]``; trace shadow rays."""
+    m = len(sp.p)
+    wi = np.zeros((m, 3))
+    wi[:, 2] = 1.0
+    radiance = np.zeros((m, 3))
+    pdf = np.zeros(m)
+    dist = np.zeros(m)
+    delta = np.zeros(m, bool)
+    if m == 0 or not scene.emitters:
+        return LightSamples(wi, radiance, pdf, delta)
+    choice = choose_emitters(scene, u[:, 0])
+    for e, sel in by_group(choice):
+        em = scene.emitters[e]
+        r = em.sample(sp.p[sel], u[sel, 1:4])
+        wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
+        pdf[sel] = r.pdf * scene.emitter_pmf[e]
+        delta[sel] = em.is_delta
+    live = np.flatnonzero((pdf > 0) & np.any(radiance > 0, axis=1))
+    if len(live):
+        g = scene.geometry
+        o = g.offset_origin(sp.p[live], sp.ng[live], wi[live])
+        blocked = g.occluded(o, wi[live], g.shadow_tmax(dist[live]))
+        radiance[live[blocked]] = 0.0
+    return LightSamples(wi, radiance, pdf, delta)
+
+
+def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Trace rays (o, d); return the emitted radiance they find (area light or environment) and the
+    solid-angle density with which *light sampling* would have produced that direction (selection
+    probability included), for MIS."""
+    g = scene.geometry
+    hits = g.intersect(o, d)
+    m = len(o)
+    Le = np.zeros((m, 3))
+    pdf = np.zeros(m)
+    em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
+    for e, sel in by_group(em):
+        emitter = scene.emitters[e]
+        Le[sel] = emitter.eval_hit(hits.ns[sel], hits.uv[sel], d[sel])
+        pdf[sel] = emitter.pdf_hit(hits.t[sel], hits.ns[sel], d[sel]) * scene.emitter_pmf[e]
+    env = scene.environment
+    if env is not None:
+        miss = np.flatnonzero(~hits.valid)
+        if len(miss):
+            Le[miss] = env.eval(d[miss])
+            e = scene.emitters.index(env)
+            pdf[miss] = env.pdf(d[miss]) * scene.emitter_pmf[e]
+    return Le, pdf
+
+
+def cos_theta(w_local: np.ndarray) -> np.ndarray:
+    """cos θ of local directions (their z component)."""
+    return w_local[:, 2]
+
+
+__all__ = ["Integrator", "ShadingPoints", "LightSamples", "background", "trace_camera", "shading_points", "by_group",
+           "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters", "dot",
+           "cos_theta"]

@@ -1,0 +1,36 @@
+"""``direct_ems``: direct illumination by emitter sampling (spec §13.2.3, seed equation (9)).
+
+No parameters.
+
+For a camera ray whose first hit x (shading normal n_s) is not on an emitter:
+
+    L = L_e(y → x) · f(ω_i, ω) · (n_s·ω) / (p_sel · p_ω) · V(x, y)
+
+with one emitter chosen with probability p_sel (uniform by default) and one sample of it (direction ω,
+solid-angle pdf p_ω). Misses return the background; hits on an emitter return its L_e and stop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from brdflab.integrator.common import Integrator, eval_bsdfs, sample_lights, trace_camera
+
+
+class DirectEMS(Integrator):
+    """Emitter sampling, one light sample per camera sample."""
+
+    type_name = "direct_ems"
+
+    def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
+        """Radiance along camera rays (see module docstring)."""
+        L, _, sp = trace_camera(scene, o, d, tmax)
+        if len(sp.index) == 0 or not scene.emitters:
+            return L
+        ls = sample_lights(scene, sp, rng.random((len(sp.index), 4)))
+        wo = sp.local(ls.wi)
+        f = eval_bsdfs(scene, sp, wo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
+        L[sp.index] += ls.radiance * f * scale[:, None]
+        return L

@@ -1,0 +1,1 @@
+"""Frames, transforms and warps (sample + pdf pairs)."""

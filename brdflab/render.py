@@ -1,0 +1,207 @@
+"""The render loop: sample passes × tiles on a thread pool, merged deterministically.
+
+Work is split into *passes* (a number of samples per pixel) and, within a pass, into square *tiles*.
+Each (pass, tile) unit draws all its random numbers from its own ``numpy.random.Generator`` seeded with
+``SeedSequence([seed, pass, tile])`` and splats into a private tile film; the main thread adds the tile
+films into the image in unit order. The image is therefore bit-identical for any number of workers.
+Worker threads run NumPy and embreex code, both of which release the GIL for the heavy work.
+
+Pass sizes are 1, 1, 2, 4, … (doubling up to ``max_pass``), then ``max_pass`` each, so every power of
+two up to the final count is a pass boundary: a progressive run of 256 spp yields the 1, 2, 4, …, 128
+spp images as checkpoints (:func:`render` ``on_pass``), each with its elapsed time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from brdflab.film import Film
+
+#: Target number of camera samples per work unit (fits comfortably in cache-friendly batches).
+UNIT_SAMPLES = 1 << 16
+
+
+def pass_schedule(spp: int, max_pass: int = 16) -> list[int]:
+    """Sizes of the sample passes: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass``; sums to ``spp``."""
+    sizes: list[int] = []
+    done = 0
+    while done < spp:
+        size = 1 if done == 0 else min(done, max_pass)
+        size = min(size, spp - done)
+        sizes.append(size)
+        done += size
+    return sizes
+
+
+def tiles_for(width: int, height: int, pass_spp: int) -> list[tuple[int, int, int, int]]:
+    """Square tiles (x0, y0, w, h) sized so each unit holds about :data:`UNIT_SAMPLES` samples."""
+    side = int(np.clip(math.sqrt(UNIT_SAMPLES / pass_spp), 16, 256)) // 8 * 8
+    return [(x, y, min(side, width - x), min(side, height - y))
+            for y in range(0, height, side) for x in range(0, width, side)]
+
+
+@dataclass
+class RenderStats:
+    """What a render did and how long it took."""
+
+    spp: int = 0
+    seconds: float = 0.0
+    samples: int = 0
+    rays: int = 0
+    ray_seconds: float = 0.0
+    dropped: int = 0
+    workers: int = 1
+    checkpoints: list[tuple[int, float]] = field(default_factory=list)
+
+    @property
+    def samples_per_second(self) -> float:
+        """Camera samples per wall-clock second."""
+        return self.samples / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def rays_per_second(self) -> float:
+        """Ray queries (camera, shadow, BSDF) per wall-clock second."""
+        return self.rays / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def embree_share(self) -> float:
+        """Share of worker time spent inside embreex ray queries."""
+        busy = self.seconds * self.workers
+        return min(1.0, self.ray_seconds / busy) if busy > 0 else 0.0
+
+    def summary(self) -> str:
+        """One line: wall time, samples/s, rays/s, share of time in ray queries."""
+        s = (f"{self.spp} spp in {self.seconds:.2f} s: {self.samples_per_second / 1e6:.2f} M samples/s, "
+             f"{self.rays_per_second / 1e6:.2f} M rays/s, {100 * self.embree_share:.0f}% of time in ray "
+             f"queries ({self.workers} worker{'s' if self.workers > 1 else ''})")
+        if self.dropped:
+            s += f"; {self.dropped} non-finite or negative samples dropped"
+        return s
+
+
+def _render_unit(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
+                 seed: int) -> tuple[Film, int, int]:
+    x0, y0, w, h = tile
+    cam = scene.camera
+    rng = np.random.default_rng([seed, pass_index, tile_index])
+    n = w * h * spp
+    pix = np.repeat(np.arange(w * h), spp)
+    jitter = rng.random((n, 2))
+    sx = (x0 + pix % w) + jitter[:, 0]
+    sy = (y0 + pix // w) + jitter[:, 1]
+    o, d, tmax = cam.generate_rays(sx, sy)
+    L = scene.integrator.li(scene, o, d, tmax, rng)
+    good = np.all(np.isfinite(L), axis=1) & np.all(L >= 0, axis=1)
+    dropped = int(n - good.sum())
+    film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h)
+    if dropped:
+        film.splat(sx[good], sy[good], L[good])
+    else:
+        film.splat(sx, sy, L)
+    return film, n, dropped
+
+
+def render(
+    scene,
+    spp: int | None = None,
+    seed: int | None = None,
+    workers: int | None = None,
+    progress: Callable[[float, RenderStats], None] | None = None,
+    on_pass: Callable[[int, float, Film], None] | None = None,
+    stop: threading.Event | None = None,
+    time_limit: float | None = None,
+) -> tuple[np.ndarray, RenderStats]:
+    """Render ``scene``.
+
+    Parameters
+    ----------
+    scene
+        A loaded :class:`brdflab.scene.loader.Scene`.
+    spp, seed
+        Samples per pixel and seed (default: the scene's sampler).
+    workers
+        Worker threads (default: the number of CPU cores).
+    progress
+        Called after every unit with (fraction done, running stats).
+    on_pass
+        Called at every pass boundary with (spp so far, elapsed seconds, the film).
+    stop
+        When set, rendering stops at the next pass boundary (e.g. Ctrl-C).
+    time_limit
+        Stop at the last pass boundary that fits in this many seconds.
+
+    Returns
+    -------
+    (image, stats)
+        The (H, W, 3) float32 image and the :class:`RenderStats`; ``stats.spp`` is the number of samples
+        per pixel actually taken (smaller than requested when stopped early).
+    """
+    spp = scene.spp if spp is None else spp
+    seed = scene.seed if seed is None else seed
+    workers = workers or os.cpu_count() or 1
+    cam = scene.camera
+    film = Film(cam.width, cam.height, scene.filter)
+    units = []
+    for p, size in enumerate(pass_schedule(spp)):
+        for t, tile in enumerate(tiles_for(cam.width, cam.height, size)):
+            units.append((p, t, tile, size))
+    pass_last = {}
+    for i, (p, _, _, _) in enumerate(units):
+        pass_last[p] = i
+    total = sum(u[2][2] * u[2][3] * u[3] for u in units)
+    stats = RenderStats(workers=workers)
+    geo = scene.geometry
+    geo.stats.reset()
+    t0 = time.perf_counter()
+    done_spp = 0
+    done_samples = 0
+    halt = threading.Event()
+    sizes = pass_schedule(spp)
+
+    def job(u):
+        if halt.is_set() or (stop is not None and stop.is_set()):
+            return None
+        return _render_unit(scene, u[0], u[1], u[2], u[3], seed)
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        results = pool.map(job, units) if workers > 1 else map(job, units)
+        pass_film = Film(cam.width, cam.height, scene.filter)
+        for i, res in enumerate(results):
+            if res is None:
+                break
+            tile_film, n, dropped = res
+            pass_film.add(tile_film)
+            done_samples += n
+            stats.dropped += dropped
+            stats.seconds = time.perf_counter() - t0
+            stats.samples = done_samples
+            stats.rays, stats.ray_seconds = geo.stats.rays, geo.stats.seconds
+            if progress is not None:
+                progress(done_samples / total, stats)
+            p = units[i][0]
+            if i == pass_last[p]:
+                film.data += pass_film.data
+                pass_film.data[:] = 0.0
+                done_spp += units[i][3]
+                stats.spp = done_spp
+                stats.checkpoints.append((done_spp, stats.seconds))
+                if on_pass is not None:
+                    on_pass(done_spp, stats.seconds, film)
+                nxt = sizes[p + 1] if p + 1 < len(sizes) else 0
+                over_time = (time_limit is not None and nxt
+                             and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
+                if (stop is not None and stop.is_set()) or over_time:
+                    halt.set()
+                    break
+    stats.seconds = time.perf_counter() - t0
+    stats.rays, stats.ray_seconds = geo.stats.rays, geo.stats.seconds
+    stats.samples = done_spp * cam.width * cam.height
+    return film.image(), stats

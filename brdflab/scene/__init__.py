@@ -1,0 +1,1 @@
+"""Nori XML parsing, property lists, OBJ loading and scene assembly."""

@@ -1,0 +1,185 @@
+"""All scene triangles in one embreex scene, with batched closest-hit and occlusion queries.
+
+Meshes are concatenated into global arrays (positions, faces, normals, uvs) and one embreex
+``TriangleMesh``; a hit's ``primID`` indexes the global face list and ``tri_mesh`` maps it back to its
+mesh. Hit records are structure-of-arrays (:class:`Hits`).
+
+Self-intersection: embreex fixes ``tnear = 0``, so secondary rays start at
+p + sign(d·n_g)·ε·n_g with ε = 10⁻⁴·max(1, max|p_i|) — the magnitude-relative epsilon of spec §7.2
+applied along the geometric normal, which stays robust at grazing angles. Shadow rays stop at
+dist·(1 − 10⁻³) − ε before the light point.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from brdflab.scene.obj import Mesh
+
+#: Relative ray epsilon (spec §7.2).
+RAY_EPS = 1e-4
+#: Embree's "infinite" distance.
+T_INF = 1e37
+
+
+@dataclass
+class Hits:
+    """Closest hits of N rays (structure of arrays). Entries of missed rays are undefined."""
+
+    valid: np.ndarray
+    """(N,) bool, True where the ray hit a triangle."""
+    t: np.ndarray
+    """(N,) hit distance along the (unit) ray direction."""
+    p: np.ndarray
+    """(N, 3) float64 hit position (from barycentrics, more accurate than o + t·d)."""
+    ng: np.ndarray
+    """(N, 3) unit geometric normal (winding order, after toWorld)."""
+    ns: np.ndarray
+    """(N, 3) unit shading normal (interpolated vertex normals, else ng)."""
+    uv: np.ndarray
+    """(N, 2) texture coordinates (the barycentric pair (u, v) when the mesh has no vt)."""
+    prim: np.ndarray
+    """(N,) global triangle index (−1 for misses)."""
+    mesh: np.ndarray
+    """(N,) mesh index (−1 for misses)."""
+
+
+class RayStats:
+    """Thread-safe counters of ray queries and the time spent inside Embree."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero all counters."""
+        self.rays = 0
+        self.seconds = 0.0
+
+    def add(self, rays: int, seconds: float) -> None:
+        """Record ``rays`` queries that took ``seconds``."""
+        with self._lock:
+            self.rays += rays
+            self.seconds += seconds
+
+
+class Geometry:
+    """The scene's triangles and the embreex acceleration structure.
+
+    Parameters
+    ----------
+    meshes
+        World-space meshes, in scene order.
+    """
+
+    def __init__(self, meshes: list[Mesh]) -> None:
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+
+        offsets = np.cumsum([0] + [len(m.positions) for m in meshes])
+        self.positions = np.concatenate([m.positions for m in meshes]) if meshes else np.zeros((0, 3))
+        self.faces = (np.concatenate([m.faces + offsets[i] for i, m in enumerate(meshes)])
+                      if meshes else np.zeros((0, 3), np.int64))
+        self.tri_mesh = (np.concatenate([np.full(len(m.faces), i, np.int32) for i, m in enumerate(meshes)])
+                         if meshes else np.zeros(0, np.int32))
+        nv = len(self.positions)
+        self.normals = np.zeros((nv, 3))
+        self.uvs = np.zeros((nv, 2))
+        self.mesh_has_normals = np.array([m.normals is not None for m in meshes], dtype=bool)
+        self.mesh_has_uvs = np.array([m.uvs is not None for m in meshes], dtype=bool)
+        for i, m in enumerate(meshes):
+            if m.normals is not None:
+                self.normals[offsets[i]:offsets[i + 1]] = m.normals
+            if m.uvs is not None:
+                self.uvs[offsets[i]:offsets[i + 1]] = m.uvs
+        p0, p1, p2 = (self.positions[self.faces[:, k]] for k in range(3))
+        cr = np.cross(p1 - p0, p2 - p0)
+        ln = np.linalg.norm(cr, axis=1)
+        self.tri_area = 0.5 * ln
+        self.face_normals = cr / np.where(ln > 0, ln, 1.0)[:, None]
+        self.scale = float(np.abs(self.positions).max()) if nv else 1.0
+        self.eps = RAY_EPS * max(1.0, self.scale)
+        self.stats = RayStats()
+        self._scene = rtcs.EmbreeScene()
+        if len(self.faces):
+            TriangleMesh(self._scene, self.positions.astype(np.float32), self.faces.astype(np.int32))
+            # Build the BVH now (embreex commits lazily on the first query).
+            self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+
+    @property
+    def triangle_count(self) -> int:
+        """Number of triangles in the scene."""
+        return len(self.faces)
+
+    # -- queries --------------------------------------------------------------------------------
+    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None) -> Hits:
+        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length)."""
+        n = len(o)
+        if n == 0 or not len(self.faces):
+            z3 = np.zeros((n, 3))
+            return Hits(np.zeros(n, bool), np.full(n, np.inf), z3, z3, z3, np.zeros((n, 2)),
+                        np.full(n, -1), np.full(n, -1))
+        dists = None if tmax is None else np.broadcast_to(np.asarray(tmax, np.float32), (n,)).copy()
+        t0 = time.perf_counter()
+        r = self._scene.run(np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32),
+                            dists=dists, output=1)
+        self.stats.add(n, time.perf_counter() - t0)
+        prim = r["primID"].astype(np.int64)
+        valid = prim >= 0
+        return self.hit_records(valid, prim, r["u"].astype(np.float64), r["v"].astype(np.float64),
+                                r["tfar"].astype(np.float64))
+
+    def hit_records(self, valid: np.ndarray, prim: np.ndarray, bu: np.ndarray, bv: np.ndarray,
+                    t: np.ndarray) -> Hits:
+        """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2)."""
+        n = len(prim)
+        pr = np.where(valid, prim, 0)
+        f = self.faces[pr]
+        b0 = (1.0 - bu - bv)[:, None]
+        b1, b2 = bu[:, None], bv[:, None]
+        pos = self.positions
+        p = b0 * pos[f[:, 0]] + b1 * pos[f[:, 1]] + b2 * pos[f[:, 2]]
+        ng = self.face_normals[pr]
+        mesh = np.where(valid, self.tri_mesh[pr], -1)
+        mi = np.where(valid, mesh, 0)
+        if self.mesh_has_normals.any():
+            nrm = self.normals
+            ns = b0 * nrm[f[:, 0]] + b1 * nrm[f[:, 1]] + b2 * nrm[f[:, 2]]
+            ln = np.linalg.norm(ns, axis=1)
+            use = self.mesh_has_normals[mi] & (ln > 0)
+            ns = np.where(use[:, None], ns / np.where(ln > 0, ln, 1.0)[:, None], ng)
+        else:
+            ns = ng
+        if self.mesh_has_uvs.any():
+            uvs = self.uvs
+            uv = b0 * uvs[f[:, 0]] + b1 * uvs[f[:, 1]] + b2 * uvs[f[:, 2]]
+            uv = np.where(self.mesh_has_uvs[mi][:, None], uv, np.stack([bu, bv], axis=1))
+        else:
+            uv = np.stack([bu, bv], axis=1)
+        return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
+
+    def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
+        """True where something blocks o + t·d for 0 ≤ t ≤ tmax."""
+        n = len(o)
+        if n == 0 or not len(self.faces):
+            return np.zeros(n, bool)
+        t0 = time.perf_counter()
+        dist = np.minimum(np.asarray(tmax, np.float64), T_INF).astype(np.float32)
+        r = self._scene.run(np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32),
+                            dists=np.ascontiguousarray(dist), query="OCCLUDED")
+        self.stats.add(n, time.perf_counter() - t0)
+        return r != -1
+
+    # -- robust ray construction ------------------------------------------------------------------
+    def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """Move ``p`` off its surface along ±n_g, to the side ``d`` leaves toward."""
+        side = np.where(np.einsum("ij,ij->i", ng, d) >= 0, self.eps, -self.eps)
+        return p + ng * side[:, None]
+
+    def shadow_tmax(self, dist: np.ndarray) -> np.ndarray:
+        """Shadow-ray length that stops just before a light point at ``dist`` (inf stays inf)."""
+        return np.where(np.isfinite(dist), dist * (1.0 - 1e-3) - self.eps, T_INF)

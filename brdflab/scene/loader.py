@@ -1,0 +1,304 @@
+"""Scene assembly: :class:`ObjectSpec` tree → :class:`Scene` (spec §2.3, §2.6, §2.7, §8).
+
+Nesting rules, singletons and defaults follow Nori: one integrator and one camera are required; the
+sampler defaults to ``independent`` with 1 sample and seed 0; the camera's filter to ``gaussian``
+(radius 2, σ 0.5); a mesh's BSDF to ``diffuse`` with albedo 0.5. Emitters are ordered scene-level first
+(XML order), then mesh area lights (mesh order). File names resolve against the scene's folder, then
+the working directory, then as given.
+"""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.bsdf.base import BSDF
+from brdflab.emitter.base import Emitter
+from brdflab.errors import BrdflabError, SceneError
+from brdflab.film import Camera, Filter
+from brdflab.math.transform import Transform
+from brdflab.scene.geometry import Geometry
+from brdflab.scene.obj import Mesh, load_obj
+from brdflab.scene.xmlparser import ObjectSpec, parse_scene_file
+from brdflab.texture import CheckerTexture
+
+#: Registered plugins: tag → type → "module:Class".
+PLUGINS: dict[str, dict[str, str]] = {
+    "bsdf": {
+        "diffuse": "brdflab.bsdf.diffuse:Diffuse",
+        "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
+        "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
+    },
+    "emitter": {
+        "area": "brdflab.emitter.area:AreaEmitter",
+        "pointlight": "brdflab.emitter.point:PointLight",
+        "environment": "brdflab.emitter.environment:EnvironmentEmitter",
+    },
+    "integrator": {
+        "normals": "brdflab.integrator.normals:NormalsIntegrator",
+        "direct_ems": "brdflab.integrator.direct_ems:DirectEMS",
+        "direct_mats": "brdflab.integrator.direct_mats:DirectMATS",
+        "direct_mis": "brdflab.integrator.direct_mis:DirectMIS",
+        "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
+    },
+}
+#: Nori plugins brdflab deliberately leaves out (no path tracing, no delta BSDFs).
+UNSUPPORTED = {
+    "bsdf": ("mirror", "dielectric", "roughdielectric"),
+    "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
+}
+
+
+def plugin_class(tag: str, type_name: str, spec: ObjectSpec | None = None) -> type:
+    """Return the class registered for ``<tag type="type_name">`` or raise a SceneError listing valid types."""
+    table = PLUGINS.get(tag, {})
+    target = table.get(type_name)
+    if target is None:
+        valid = ", ".join(sorted(table)) or "none"
+        if type_name in UNSUPPORTED.get(tag, ()):
+            msg = f'<{tag} type="{type_name}"> is a Nori plugin that brdflab does not support ' \
+                  f"(direct illumination only); supported types: {valid}"
+        else:
+            msg = f'unknown {tag} type "{type_name}"; valid types: {valid}'
+        raise SceneError(msg, spec.file if spec else None, spec.line if spec else None)
+    module, cls = target.split(":")
+    return getattr(importlib.import_module(module), cls)
+
+
+@dataclass
+class MeshInstance:
+    """A mesh with its material and (optional) area emitter."""
+
+    mesh: Mesh
+    bsdf: int
+    emitter: int = -1
+
+
+@dataclass
+class Scene:
+    """A loaded scene, ready to render."""
+
+    path: Path
+    camera: Camera
+    filter: Filter
+    integrator: object
+    integrator_type: str
+    spp: int
+    seed: int
+    bsdfs: list[BSDF]
+    emitters: list[Emitter]
+    meshes: list[MeshInstance]
+    geometry: Geometry
+    environment: Emitter | None = None
+    mesh_bsdf: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    mesh_emitter: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    emitter_pmf: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    emitter_cdf: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def set_emitter_selection(self, mode: str = "uniform") -> None:
+        """Choose emitters uniformly (Nori's rule, default) or proportionally to their power."""
+        n = len(self.emitters)
+        if n == 0:
+            self.emitter_pmf = np.zeros(0)
+        elif mode == "uniform":
+            self.emitter_pmf = np.full(n, 1.0 / n)
+        elif mode == "power":
+            p = np.array([max(e.power(), 0.0) for e in self.emitters])
+            self.emitter_pmf = p / p.sum() if p.sum() > 0 else np.full(n, 1.0 / n)
+        else:
+            raise BrdflabError(f"unknown emitter selection '{mode}'; valid: uniform, power")
+        self.emitter_cdf = np.cumsum(self.emitter_pmf)
+        if n:
+            self.emitter_cdf[-1] = 1.0
+
+
+def resolve_path(scene_dir: Path, name: str) -> Path | None:
+    """Resolve a file name as Nori does (scene folder, then working directory, then as given)."""
+    for cand in (scene_dir / name, Path.cwd() / name, Path(name)):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _attach_textures(obj: object, spec: ObjectSpec) -> None:
+    slots = getattr(obj, "texture_slots", ())
+    for child in spec.children:
+        if child.tag != "texture":
+            raise child.error(f"{spec.label} cannot contain <{child.tag}>; it accepts only <texture> children "
+                              f"named {', '.join(slots) or '(none)'}")
+        if child.name not in slots:
+            raise child.error(f'texture name "{child.name}" is not a slot of {spec.label}; valid names: '
+                              f"{', '.join(slots) or 'none'}")
+        if child.type != "checker":
+            raise child.error(f'unknown texture type "{child.type}"; valid types: checker')
+        obj.set_texture(child.name, CheckerTexture.from_properties(child.props))
+
+
+def _no_children(spec: ObjectSpec) -> None:
+    if spec.children:
+        c = spec.children[0]
+        raise c.error(f"{spec.label} cannot contain <{c.tag}>")
+
+
+def load_scene(path: str | Path, integrator_override: str | None = None) -> Scene:
+    """Parse and assemble a Nori scene file.
+
+    Parameters
+    ----------
+    path
+        The scene XML file.
+    integrator_override
+        Replace the scene's integrator type (e.g. ``"direct_mis"``).
+
+    Raises
+    ------
+    BrdflabError
+        For every invalid or missing input, with file and line.
+    """
+    path = Path(path)
+    root = parse_scene_file(path)
+    root.props.check_known({})
+    scene_dir = path.parent
+    camera_spec = integrator_spec = sampler_spec = None
+    env_specs: list[ObjectSpec] = []
+    scene_emitters: list[ObjectSpec] = []
+    mesh_specs: list[ObjectSpec] = []
+    for child in root.children:
+        if child.tag in ("camera", "integrator", "sampler"):
+            prev = {"camera": camera_spec, "integrator": integrator_spec, "sampler": sampler_spec}[child.tag]
+            if prev is not None:
+                raise child.error(f"a scene can have only one <{child.tag}> (the first is at line {prev.line})")
+            if child.tag == "camera":
+                camera_spec = child
+            elif child.tag == "integrator":
+                integrator_spec = child
+                if integrator_override is None:
+                    plugin_class("integrator", child.type, child)
+            else:
+                sampler_spec = child
+        elif child.tag == "mesh":
+            mesh_specs.append(child)
+        elif child.tag == "emitter":
+            if child.type == "area":
+                raise child.error('an <emitter type="area"> must be placed inside a <mesh>')
+            plugin_class("emitter", child.type, child)
+            if child.type == "environment":
+                if env_specs:
+                    raise child.error("a scene can have only one environment emitter")
+                env_specs.append(child)
+            scene_emitters.append(child)
+        else:
+            raise child.error(f"<scene> cannot contain <{child.tag}>; valid children: <mesh>, <emitter>, "
+                              "<sampler>, <camera>, <integrator>")
+    if integrator_spec is None:
+        raise SceneError("no <integrator> was specified", path)
+    if camera_spec is None:
+        raise SceneError("no <camera> was specified", path)
+
+    # Integrator.
+    itype = integrator_override or integrator_spec.type
+    icls = plugin_class("integrator", itype, integrator_spec)
+    _no_children(integrator_spec)
+    integrator = icls.from_properties(integrator_spec.props)
+
+    # Camera and filter.
+    if camera_spec.type != "perspective":
+        raise camera_spec.error(f'unknown camera type "{camera_spec.type}"; valid types: perspective')
+    camera = Camera.from_properties(camera_spec.props)
+    filt = Filter()
+    for c in camera_spec.children:
+        if c.tag != "rfilter":
+            raise c.error(f"<camera> cannot contain <{c.tag}>; it accepts one <rfilter>")
+        if c.type not in Filter.KNOWN:
+            raise c.error(f'unknown rfilter type "{c.type}"; valid types: {", ".join(Filter.KNOWN)}')
+        if len([x for x in camera_spec.children if x.tag == "rfilter"]) > 1:
+            raise c.error("<camera> accepts only one <rfilter>")
+        _no_children(c)
+        filt = Filter.from_properties(c.type, c.props)
+
+    # Sampler.
+    spp, seed = 1, 0
+    if sampler_spec is not None:
+        if sampler_spec.type != "independent":
+            raise sampler_spec.error(f'unknown sampler type "{sampler_spec.type}"; valid types: independent')
+        _no_children(sampler_spec)
+        sampler_spec.props.check_known({"sampleCount": "integer", "seed": "integer"})
+        spp = sampler_spec.props.get_int("sampleCount", 1)
+        seed = sampler_spec.props.get_int("seed", 0)
+        if spp < 1:
+            raise sampler_spec.props.error("sampleCount", f"'sampleCount' must be at least 1, got {spp}")
+
+    # Scene-level emitters (XML order).
+    emitters: list[Emitter] = []
+    environment = None
+    for spec in scene_emitters:
+        cls = plugin_class("emitter", spec.type, spec)
+        _no_children(spec)
+        if spec.type == "environment":
+            em = cls.from_properties(spec.props, lambda n: resolve_path(scene_dir, n))
+            environment = em
+        else:
+            em = cls.from_properties(spec.props)
+        emitters.append(em)
+
+    # Meshes, their BSDFs and area emitters.
+    bsdfs: list[BSDF] = []
+    meshes: list[MeshInstance] = []
+    area_emitters: list[tuple[int, Emitter, ObjectSpec]] = []
+    for spec in mesh_specs:
+        if spec.type != "obj":
+            raise spec.error(f'unknown mesh type "{spec.type}"; valid types: obj')
+        spec.props.check_known({"filename": "string", "toWorld": "transform"})
+        fname = spec.props.get_string("filename")
+        fpath = resolve_path(scene_dir, fname)
+        if fpath is None:
+            raise spec.props.error("filename", f"mesh file '{fname}' not found (looked in {scene_dir} and "
+                                   "the working directory)")
+        to_world = spec.props.get_transform("toWorld", Transform())
+        mesh = load_obj(fpath, to_world)
+        bsdf_spec = em_spec = None
+        for c in spec.children:
+            if c.tag == "bsdf":
+                if bsdf_spec is not None:
+                    raise c.error("a <mesh> can have only one <bsdf>")
+                bsdf_spec = c
+            elif c.tag == "emitter":
+                if em_spec is not None:
+                    raise c.error("a <mesh> can have only one <emitter>")
+                if c.type != "area":
+                    raise c.error(f'<emitter type="{c.type}"> cannot be placed inside a <mesh>; only "area" can')
+                em_spec = c
+            else:
+                raise c.error(f"<mesh> cannot contain <{c.tag}>; it accepts one <bsdf> and one <emitter>")
+        if bsdf_spec is None:
+            bsdf = plugin_class("bsdf", "diffuse")(np.full(3, 0.5))
+        else:
+            bsdf = plugin_class("bsdf", bsdf_spec.type, bsdf_spec).from_properties(bsdf_spec.props)
+            _attach_textures(bsdf, bsdf_spec)
+        bsdfs.append(bsdf)
+        meshes.append(MeshInstance(mesh, len(bsdfs) - 1))
+        if em_spec is not None:
+            em = plugin_class("emitter", "area", em_spec).from_properties(em_spec.props)
+            _attach_textures(em, em_spec)
+            area_emitters.append((len(meshes) - 1, em, em_spec))
+
+    geometry = Geometry([m.mesh for m in meshes])
+    for mesh_index, em, spec in area_emitters:
+        em.attach(geometry, mesh_index)
+        if not em.area > 0:
+            raise spec.error(f"area emitter on '{meshes[mesh_index].mesh.path}' has zero surface area")
+        meshes[mesh_index].emitter = len(emitters)
+        emitters.append(em)
+
+    scene = Scene(path, camera, filt, integrator, itype, spp, seed, bsdfs, emitters, meshes, geometry,
+                  environment)
+    scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
+    scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
+    scene.set_emitter_selection("uniform")
+    if not emitters and getattr(integrator, "needs_emitters", False):
+        warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
+    return scene

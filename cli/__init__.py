@@ -1,0 +1,1 @@
+"""The thin command-line layer behind the ``brdflab`` command (no rendering logic here)."""

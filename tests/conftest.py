@@ -1,0 +1,45 @@
+"""Shared fixtures: paths to the user scenes (optional) and tiny synthetic scenes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = ROOT.parent / "shared" / "scenes"
+
+QUAD_OBJ = """v -1 0 -1
+v 1 0 -1
+v 1 0 1
+v -1 0 1
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+f 1/1 4/4 3/3 2/2
+"""
+
+
+def shared_scene(rel: str) -> Path:
+    """Path of a user scene under ../shared/scenes, or skip the test when it is absent."""
+    p = SHARED / rel
+    if not p.exists():
+        pytest.skip(f"user scenes not available ({p})")
+    return p
+
+
+def write_scene(tmp_path: Path, body: str, files: dict[str, str] | None = None, name: str = "scene.xml") -> Path:
+    """Write ``<scene>body</scene>`` and extra files into ``tmp_path``; return the scene path."""
+    for fname, text in (files or {}).items():
+        (tmp_path / fname).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / fname).write_text(text)
+    path = tmp_path / name
+    path.write_text(f"<scene>\n{body}\n</scene>\n")
+    return path
+
+
+CAMERA = """<camera type="perspective">
+  <transform name="toWorld"><lookat origin="0,3,0.001" target="0,0,0" up="0,0,1"/></transform>
+  <float name="fov" value="60"/><integer name="width" value="32"/><integer name="height" value="24"/>
+</camera>"""
