@@ -38,11 +38,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 class Progress:
     """A progress bar with ETA on a terminal; plain periodic lines otherwise."""
 
-    def __init__(self, label: str, stream=sys.stderr, quiet: bool = False) -> None:
+    def __init__(self, label: str, stream=None, quiet: bool = False) -> None:
         self.label = label
-        self.stream = stream
+        self.stream = stream if stream is not None else sys.stderr
         self.quiet = quiet
-        self.tty = stream.isatty()
+        self.tty = self.stream.isatty()
         self.t0 = time.perf_counter()
         self.last = -1.0
 

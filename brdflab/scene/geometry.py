@@ -101,6 +101,22 @@ class Geometry:
         ln = np.linalg.norm(cr, axis=1)
         self.tri_area = 0.5 * ln
         self.face_normals = cr / np.where(ln > 0, ln, 1.0)[:, None]
+        # Per-triangle packed attributes, so a hit needs one gather each: p0, p1 − p0, p2 − p0 ...
+        self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1)
+        tri_has_n = self.mesh_has_normals[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
+        tri_has_uv = self.mesh_has_uvs[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
+        # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none) ...
+        self.tri_nrm = None
+        if tri_has_n.any():
+            n0, n1, n2 = (np.where(tri_has_n[:, None], self.normals[self.faces[:, k]], self.face_normals)
+                          for k in range(3))
+            self.tri_nrm = np.concatenate([n0, n1 - n0, n2 - n0], axis=1)
+        # ... and uv0, uv1 − uv0, uv2 − uv0 ((0,0), (1,0), (0,1) where the mesh has no vt: uv = (u, v)).
+        self.tri_uv = None
+        if tri_has_uv.any():
+            u0, u1, u2 = (np.where(tri_has_uv[:, None], self.uvs[self.faces[:, k]], np.eye(3)[k - 1, :2]
+                                   if k else 0.0) for k in range(3))
+            self.tri_uv = np.concatenate([u0, u1 - u0, u2 - u0], axis=1)
         self.scale = float(np.abs(self.positions).max()) if nv else 1.0
         self.eps = RAY_EPS * max(1.0, self.scale)
         self.stats = RayStats()
@@ -135,31 +151,28 @@ class Geometry:
 
     def hit_records(self, valid: np.ndarray, prim: np.ndarray, bu: np.ndarray, bv: np.ndarray,
                     t: np.ndarray) -> Hits:
-        """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2)."""
-        n = len(prim)
+        """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2).
+
+        With barycentrics (1 − u − v, u, v): p = p0 + u(p1 − p0) + v(p2 − p0), likewise for normals
+        (then renormalised) and uvs.
+        """
         pr = np.where(valid, prim, 0)
-        f = self.faces[pr]
-        b0 = (1.0 - bu - bv)[:, None]
-        b1, b2 = bu[:, None], bv[:, None]
-        pos = self.positions
-        p = b0 * pos[f[:, 0]] + b1 * pos[f[:, 1]] + b2 * pos[f[:, 2]]
+        bu2, bv2 = bu[:, None], bv[:, None]
+
+        def interp(packed: np.ndarray, k: int) -> np.ndarray:
+            a = packed[pr]
+            return a[:, :k] + bu2 * a[:, k:2 * k] + bv2 * a[:, 2 * k:]
+
+        p = interp(self.tri_pos, 3)
         ng = self.face_normals[pr]
-        mesh = np.where(valid, self.tri_mesh[pr], -1)
-        mi = np.where(valid, mesh, 0)
-        if self.mesh_has_normals.any():
-            nrm = self.normals
-            ns = b0 * nrm[f[:, 0]] + b1 * nrm[f[:, 1]] + b2 * nrm[f[:, 2]]
-            ln = np.linalg.norm(ns, axis=1)
-            use = self.mesh_has_normals[mi] & (ln > 0)
-            ns = np.where(use[:, None], ns / np.where(ln > 0, ln, 1.0)[:, None], ng)
+        if self.tri_nrm is not None:
+            ns = interp(self.tri_nrm, 3)
+            ln = np.sqrt(np.einsum("ij,ij->i", ns, ns))
+            ns = np.where((ln > 0)[:, None], ns / np.where(ln > 0, ln, 1.0)[:, None], ng)
         else:
             ns = ng
-        if self.mesh_has_uvs.any():
-            uvs = self.uvs
-            uv = b0 * uvs[f[:, 0]] + b1 * uvs[f[:, 1]] + b2 * uvs[f[:, 2]]
-            uv = np.where(self.mesh_has_uvs[mi][:, None], uv, np.stack([bu, bv], axis=1))
-        else:
-            uv = np.stack([bu, bv], axis=1)
+        uv = interp(self.tri_uv, 2) if self.tri_uv is not None else np.stack([bu, bv], axis=1)
+        mesh = np.where(valid, self.tri_mesh[pr], -1)
         return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
 
     def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
