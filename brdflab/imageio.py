@@ -2,7 +2,8 @@
 
 EXR files are written as Nori writes them: scanline, three 32-bit float channels R, G, B, ZIP
 compression, a ``comments`` attribute. PNG files are 8-bit sRGB with Nori's transfer curve and
-truncating quantisation: byte = ⌊clamp(255·s(c), 0, 255)⌋ with s the sRGB OETF (IEC 61966-2-1). All writes are atomic: a temporary file in the same folder is renamed
+truncating quantisation: byte = ⌊clamp(255·s(c), 0, 255)⌋ with s the sRGB OETF (IEC 61966-2-1).
+All writes are atomic: a temporary file in the same folder is renamed
 into place, so an interrupted run never leaves a half-written image.
 """
 

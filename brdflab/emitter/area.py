@@ -22,6 +22,7 @@ import numpy as np
 
 from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math import warps
+from brdflab.math.frame import dot
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
 
@@ -43,7 +44,7 @@ class AreaEmitter(Emitter):
     texture_slots = ("radiance",)
     KNOWN = {"radiance": "color", "scale": "float"}
 
-    def __init__(self, radiance: Texture | np.ndarray = np.ones(3), scale: float = 1.0) -> None:
+    def __init__(self, radiance: Texture | np.ndarray | float = 1.0, scale: float = 1.0) -> None:
         self.radiance = as_texture(radiance)
         self.scale = float(scale)
         self.mesh_index = -1
@@ -82,10 +83,10 @@ class AreaEmitter(Emitter):
         bu, bv = b[:, 1], 1.0 - b[:, 0] - b[:, 1]
         h = g.hit_records(np.ones(len(prim), bool), prim, bu, bv, np.zeros(len(prim)))
         delta = h.p - ref_p
-        dist2 = np.einsum("ij,ij->i", delta, delta)
+        dist2 = dot(delta, delta)
         dist = np.sqrt(dist2)
         wi = delta / np.where(dist > 0, dist, 1.0)[:, None]
-        cos_l = -np.einsum("ij,ij->i", h.ns, wi)
+        cos_l = -dot(h.ns, wi)
         front = cos_l > 0
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = np.where(front, dist2 / (self.area * np.abs(cos_l)), 0.0)
@@ -95,12 +96,12 @@ class AreaEmitter(Emitter):
 
     def eval_hit(self, ns: np.ndarray, uv: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Radiance arriving along rays of direction ``d`` that hit this emitter (shading normal ``ns``)."""
-        front = np.einsum("ij,ij->i", ns, d) < 0
+        front = dot(ns, d) < 0
         return np.where(front[:, None], self.le(uv), 0.0)
 
     def pdf_hit(self, dist: np.ndarray, ns: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Solid-angle density with which :meth:`sample` would produce the hit at ``dist`` along ``d``."""
-        cos_l = -np.einsum("ij,ij->i", ns, d)
+        cos_l = -dot(ns, d)
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = np.where(cos_l > 0, dist * dist / (self.area * np.abs(cos_l)), 0.0)
         return np.where(np.isfinite(pdf), pdf, 0.0)

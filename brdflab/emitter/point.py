@@ -17,6 +17,7 @@ import numpy as np
 
 from brdflab.emitter.area import LUMINANCE
 from brdflab.emitter.base import Emitter, EmitterSample
+from brdflab.math.frame import dot
 from brdflab.scene.properties import PropertyList
 
 
@@ -43,7 +44,7 @@ class PointLight(Emitter):
     def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
         """Deterministic 'sample': the direction to the light, I/r², pdf 1."""
         delta = self.position - ref_p
-        dist2 = np.einsum("ij,ij->i", delta, delta)
+        dist2 = dot(delta, delta)
         dist = np.sqrt(dist2)
         ok = dist > 0
         wi = delta / np.where(ok, dist, 1.0)[:, None]

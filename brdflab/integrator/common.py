@@ -54,13 +54,17 @@ class ShadingPoints:
     bsdf: np.ndarray
     """(M,) BSDF index."""
 
-    def local(self, w: np.ndarray) -> np.ndarray:
-        """World directions → local shading frame."""
-        return to_local(w, self.s, self.t, self.ns)
+    def local(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
+        """World directions → local shading frame (of the points ``sel``, default all)."""
+        if sel is None:
+            return to_local(w, self.s, self.t, self.ns)
+        return to_local(w, self.s[sel], self.t[sel], self.ns[sel])
 
-    def world(self, w: np.ndarray) -> np.ndarray:
-        """Local directions → world."""
-        return to_world(w, self.s, self.t, self.ns)
+    def world(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
+        """Local directions → world (for the points ``sel``, default all)."""
+        if sel is None:
+            return to_world(w, self.s, self.t, self.ns)
+        return to_world(w, self.s[sel], self.t[sel], self.ns[sel])
 
 
 def background(scene, d: np.ndarray) -> np.ndarray:

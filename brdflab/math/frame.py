@@ -11,8 +11,8 @@ import numpy as np
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise dot product of two (N, 3) arrays."""
-    return np.einsum("ij,ij->i", a, b)
+    """Row-wise dot product of two (N, 3) arrays (column products: faster than einsum here)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def normalize(v: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.math.frame import dot
 from brdflab.scene.obj import Mesh
 
 #: Relative ray epsilon (spec §7.2).
@@ -101,8 +102,9 @@ class Geometry:
         ln = np.linalg.norm(cr, axis=1)
         self.tri_area = 0.5 * ln
         self.face_normals = cr / np.where(ln > 0, ln, 1.0)[:, None]
+        self.face_normals_t = np.ascontiguousarray(self.face_normals.T)
         # Per-triangle packed attributes, so a hit needs one gather each: p0, p1 − p0, p2 − p0 ...
-        self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1)
+        self.tri_pos = np.ascontiguousarray(np.concatenate([p0, p1 - p0, p2 - p0], axis=1).T)
         tri_has_n = self.mesh_has_normals[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         tri_has_uv = self.mesh_has_uvs[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none) ...
@@ -110,13 +112,13 @@ class Geometry:
         if tri_has_n.any():
             n0, n1, n2 = (np.where(tri_has_n[:, None], self.normals[self.faces[:, k]], self.face_normals)
                           for k in range(3))
-            self.tri_nrm = np.concatenate([n0, n1 - n0, n2 - n0], axis=1)
+            self.tri_nrm = np.ascontiguousarray(np.concatenate([n0, n1 - n0, n2 - n0], axis=1).T)
         # ... and uv0, uv1 − uv0, uv2 − uv0 ((0,0), (1,0), (0,1) where the mesh has no vt: uv = (u, v)).
         self.tri_uv = None
         if tri_has_uv.any():
             u0, u1, u2 = (np.where(tri_has_uv[:, None], self.uvs[self.faces[:, k]], np.eye(3)[k - 1, :2]
                                    if k else 0.0) for k in range(3))
-            self.tri_uv = np.concatenate([u0, u1 - u0, u2 - u0], axis=1)
+            self.tri_uv = np.ascontiguousarray(np.concatenate([u0, u1 - u0, u2 - u0], axis=1).T)
         self.scale = float(np.abs(self.positions).max()) if nv else 1.0
         self.eps = RAY_EPS * max(1.0, self.scale)
         self.stats = RayStats()
@@ -157,22 +159,33 @@ class Geometry:
         (then renormalised) and uvs.
         """
         pr = np.where(valid, prim, 0)
-        bu2, bv2 = bu[:, None], bv[:, None]
+        n = len(pr)
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
-            a = packed[pr]
-            return a[:, :k] + bu2 * a[:, k:2 * k] + bv2 * a[:, 2 * k:]
+            # packed rows: k components of v0, then of v1 − v0, then of v2 − v0 (one 1-D gather each).
+            out = np.empty((n, k))
+            for j in range(k):
+                out[:, j] = np.take(packed[j], pr)
+                out[:, j] += bu * np.take(packed[k + j], pr)
+                out[:, j] += bv * np.take(packed[2 * k + j], pr)
+            return out
 
         p = interp(self.tri_pos, 3)
-        ng = self.face_normals[pr]
+        ng = np.empty((n, 3))
+        for j in range(3):
+            ng[:, j] = np.take(self.face_normals_t[j], pr)
         if self.tri_nrm is not None:
             ns = interp(self.tri_nrm, 3)
-            ln = np.sqrt(np.einsum("ij,ij->i", ns, ns))
-            ns = np.where((ln > 0)[:, None], ns / np.where(ln > 0, ln, 1.0)[:, None], ng)
+            ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
+            bad = ~(ln > 0)
+            ln[bad] = 1.0
+            ns /= ln[:, None]
+            if bad.any():
+                ns[bad] = ng[bad]
         else:
             ns = ng
         uv = interp(self.tri_uv, 2) if self.tri_uv is not None else np.stack([bu, bv], axis=1)
-        mesh = np.where(valid, self.tri_mesh[pr], -1)
+        mesh = np.where(valid, np.take(self.tri_mesh, pr), -1)
         return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
 
     def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
@@ -190,7 +203,7 @@ class Geometry:
     # -- robust ray construction ------------------------------------------------------------------
     def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Move ``p`` off its surface along ±n_g, to the side ``d`` leaves toward."""
-        side = np.where(np.einsum("ij,ij->i", ng, d) >= 0, self.eps, -self.eps)
+        side = np.where(dot(ng, d) >= 0, self.eps, -self.eps)
         return p + ng * side[:, None]
 
     def shadow_tmax(self, dist: np.ndarray) -> np.ndarray:

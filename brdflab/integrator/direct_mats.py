@@ -1,0 +1,52 @@
+"""``direct_mats``: direct illumination by BSDF sampling (spec §13.2.4, seed equation (10)).
+
+No parameters.
+
+At the first hit x (not an emitter), one direction ω ~ p_bsdf(· | ω_i) is traced:
+
+    L = w · L_e(y → x),   w = f(ω_i, ω) cos θ / p_bsdf(ω)   (the BSDF sample weight)
+
+where L_e is the radiance of the emitter mesh the ray hits (one-sided), or the environment when it
+escapes, and 0 otherwise. Misses of the camera ray return the background; camera hits on an emitter
+return its L_e and stop. Point lights cannot be found this way (their contribution is 0 here).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from brdflab.integrator.common import Integrator, emission_along, sample_bsdfs, trace_camera
+
+
+def bsdf_rays(scene, sp, u: np.ndarray):
+    """Sample the BSDF at every shading point and trace the rays that carry weight.
+
+    Returns
+    -------
+    (live, weight, pdf_bsdf, Le, pdf_light)
+        ``live`` indexes the shading points whose sample has a non-zero weight; the other arrays are
+        restricted to them: BSDF weight f·cos/p, BSDF pdf, radiance found along the ray, and the
+        solid-angle pdf with which light sampling would pick that direction (selection included).
+    """
+    wo, weight, pdf = sample_bsdfs(scene, sp, u)
+    live = np.flatnonzero(np.any(weight > 0, axis=1))
+    d = sp.world(wo[live], live)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = scene.geometry.offset_origin(sp.p[live], sp.ng[live], d)
+    Le, pdf_light = emission_along(scene, o, d)
+    return live, weight[live], pdf[live], Le, pdf_light
+
+
+class DirectMATS(Integrator):
+    """BSDF sampling, one BSDF sample per camera sample."""
+
+    type_name = "direct_mats"
+
+    def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
+        """Radiance along camera rays (see module docstring)."""
+        L, _, sp = trace_camera(scene, o, d, tmax)
+        if len(sp.index) == 0:
+            return L
+        live, weight, _, Le, _ = bsdf_rays(scene, sp, rng.random((len(sp.index), 3)))
+        L[sp.index[live]] += weight * Le
+        return L
