@@ -65,7 +65,8 @@ def test_transform_ops(tmp_path):
          "expected a number", 3),
         ('<integrator type="direct_ems"/>\n<camera type="perspective"><float name="fovv" value="3"/></camera>',
          "unknown property 'fovv' \\(did you mean 'fov'\\?\\)", 3),
-        ('<integrator type="direct_ems"/>' + CAMERA + '\n<mesh type="obj"><string name="filename" value="x.obj"/></mesh>',
+        ('<integrator type="direct_ems"/>' + CAMERA
+         + '\n<mesh type="obj"><string name="filename" value="x.obj"/></mesh>',
          "mesh file 'x.obj' not found", 6),
         ('<integrator type="direct_ems"/>\n<integrator type="direct_ems"/>' + CAMERA, "only one <integrator>", 3),
         ('<integrator type="direct_ems"/>', "no <camera>", None),

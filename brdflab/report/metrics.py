@@ -1,0 +1,118 @@
+"""Image error metrics against a reference (per channel and overall).
+
+==========  ===============================================  ======================================
+metric      definition (per pixel p, channel c, means over p)  note
+==========  ===============================================  ======================================
+MSE         mean (x − r)²
+RMSE        √MSE
+relMSE      mean (x − r)² / (r² + 0.01)                      the course's relative MSE
+MAPE        mean |x − r| / (|r| + 0.01)                      mean absolute percentage error
+bias        mean(x)/mean(r) − 1                              relative bias of the image mean
+==========  ===============================================  ======================================
+
+Non-finite pixels of the test image are counted and excluded from every metric (so one NaN does not
+hide the rest); the reference must be finite.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from brdflab.errors import ImageError
+
+EPS = 0.01
+CHANNELS = ("R", "G", "B")
+
+
+@dataclass
+class Metrics:
+    """Error of one image against a reference."""
+
+    mse: float
+    rmse: float
+    relmse: float
+    mape: float
+    bias: float
+    per_channel: dict[str, dict[str, float]]
+    nonfinite: int
+    pixels: int
+
+    def to_dict(self) -> dict:
+        """Plain-dict form (for JSON)."""
+        return asdict(self)
+
+
+def _check(test: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    test = np.asarray(test, dtype=np.float64)
+    ref = np.asarray(ref, dtype=np.float64)
+    if test.ndim == 2:
+        test = test[..., None]
+    if ref.ndim == 2:
+        ref = ref[..., None]
+    if test.shape[:2] != ref.shape[:2]:
+        raise ImageError(f"image sizes differ: test is {test.shape[1]}×{test.shape[0]}, reference is "
+                         f"{ref.shape[1]}×{ref.shape[0]}")
+    if test.shape[2] != ref.shape[2]:
+        raise ImageError(f"channel counts differ: test has {test.shape[2]}, reference has {ref.shape[2]}")
+    if not np.isfinite(ref).all():
+        raise ImageError("the reference image contains NaN or infinite values")
+    return test, ref
+
+
+def _metrics(x: np.ndarray, r: np.ndarray) -> dict[str, float]:
+    d = x - r
+    mse = float(np.mean(d * d))
+    return {
+        "mse": mse,
+        "rmse": float(np.sqrt(mse)),
+        "relmse": float(np.mean(d * d / (r * r + EPS))),
+        "mape": float(np.mean(np.abs(d) / (np.abs(r) + EPS))),
+        "bias": float(np.mean(x) / np.mean(r) - 1.0) if np.mean(r) != 0 else float("nan"),
+    }
+
+
+def compare(test: np.ndarray, ref: np.ndarray) -> Metrics:
+    """Compare ``test`` with ``ref`` (both (H, W, C)); see the module docstring for definitions."""
+    test, ref = _check(test, ref)
+    finite = np.isfinite(test).all(axis=2)
+    x, r = test[finite], ref[finite]
+    overall = _metrics(x, r)
+    names = CHANNELS if test.shape[2] == 3 else tuple(str(i) for i in range(test.shape[2]))
+    per = {names[c]: _metrics(x[:, c], r[:, c]) for c in range(test.shape[2])}
+    return Metrics(**overall, per_channel=per, nonfinite=int((~finite).sum()), pixels=int(finite.size))
+
+
+def relmse_map(test: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Per-pixel relative squared error (x − r)²/(r² + 0.01), averaged over channels, (H, W)."""
+    test, ref = _check(test, ref)
+    d = test - ref
+    return np.mean(d * d / (ref * ref + EPS), axis=2)
+
+
+def write_heatmap(path, test: np.ndarray, ref: np.ndarray, title: str = "relative squared error") -> None:
+    """Write a false-colour, log-scale per-pixel error heatmap with a colour bar (PNG or SVG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    from brdflab.imageio import _atomic_write
+
+    err = relmse_map(test, ref)
+    bad = ~np.isfinite(err)
+    pos = err[(err > 0) & ~bad]
+    lo = max(float(np.percentile(pos, 1)), 1e-8) if pos.size else 1e-8
+    hi = max(float(np.percentile(pos, 99.9)), lo * 10) if pos.size else 1.0
+    h, w = err.shape
+    fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6), dpi=100)
+    im = ax.imshow(np.where(bad, np.nan, np.clip(err, lo, hi)), cmap="inferno", norm=LogNorm(lo, hi))
+    ax.set_axis_off()
+    ax.set_title(title)
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label="(x − r)² / (r² + 0.01)")
+    fig.tight_layout()
+    fmt = str(path).rsplit(".", 1)[-1].lower()
+    _atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt))
+    plt.close(fig)
