@@ -134,7 +134,8 @@ def render(
     on_pass
         Called at every pass boundary with (spp so far, elapsed seconds, the film).
     stop
-        When set, rendering stops at the next pass boundary (e.g. Ctrl-C).
+        When set (e.g. by Ctrl-C), rendering stops within one work unit; the image holds the completed
+        passes only.
     time_limit
         Stop at the last pass boundary that fits in this many seconds.
 
@@ -176,6 +177,9 @@ def render(
         pass_film = Film(cam.width, cam.height, scene.filter)
         for i, res in enumerate(results):
             if res is None:
+                break
+            if stop is not None and stop.is_set():
+                halt.set()  # keep only the completed passes; workers finish their unit and return
                 break
             tile_film, n, dropped = res
             pass_film.add(tile_film)

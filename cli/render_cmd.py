@@ -111,8 +111,7 @@ def run(args: argparse.Namespace) -> int:
         if stop.is_set():
             raise KeyboardInterrupt
         stop.set()
-        print("\nbrdflab: interrupted — finishing the current pass and saving the partial image "
-              "(Ctrl-C again to abort)", file=sys.stderr)
+        print("\nbrdflab: interrupted — saving the completed passes (Ctrl-C again to abort)", file=sys.stderr)
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, on_sigint)
@@ -125,9 +124,9 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
     if stats.spp == 0:
         raise BrdflabError("stopped before the first pass finished; no image written")
-    partial = stats.spp < spp
-    exr, png = output_paths(args.scene, args.output, args.figures, stats.spp if (partial or args.figures) else spp)
-    if partial and args.figures is None:
+    interrupted = stop.is_set() and stats.spp < spp
+    exr, png = output_paths(args.scene, args.output, args.figures, stats.spp)
+    if interrupted and args.figures is None:
         exr = exr.with_name(f"{exr.stem}_partial_{stats.spp}spp.exr")
         png = exr.with_suffix(".png")
     write_exr(exr, image, extra={"brdflab_spp": str(stats.spp), "brdflab_integrator": scene.integrator_type,
@@ -136,4 +135,4 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(stats.summary(), file=sys.stderr)
         print(f"wrote {exr} and {png}", file=sys.stderr)
-    return 130 if (partial and stop.is_set()) else 0
+    return 130 if interrupted else 0
