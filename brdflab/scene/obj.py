@@ -13,6 +13,7 @@ kind; Python touches each face line only to count its vertices.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,6 +183,13 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     base = starts[tri_poly]
     faces = np.stack([inv[base], inv[base + tri_k + 1], inv[base + tri_k + 2]], axis=1).astype(np.int64)
 
+    e1 = pos[idx[base + tri_k + 1, 0]] - pos[idx[base, 0]]
+    e2 = pos[idx[base + tri_k + 2, 0]] - pos[idx[base, 0]]
+    degenerate = np.flatnonzero(~(np.linalg.norm(np.cross(e1, e2), axis=1) > 0))
+    if len(degenerate):
+        warnings.warn(f"{path}:{fnos[tri_poly[degenerate[0]]]}: {len(degenerate)} degenerate (zero-area) "
+                      f"triangle{'s' if len(degenerate) > 1 else ''}; they are kept but can never be hit",
+                      stacklevel=2)
     positions = pos[vsel[:, 0]]
     uvs = uv[vsel[:, 1]] if has_t else None
     normals = nrm[vsel[:, nslash]] if has_n else None
