@@ -29,13 +29,20 @@ from brdflab.film import Film
 UNIT_SAMPLES = 1 << 16
 
 
-def pass_schedule(spp: int, max_pass: int = 16) -> list[int]:
-    """Sizes of the sample passes: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass``; sums to ``spp``."""
+def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = ()) -> list[int]:
+    """Sizes of the sample passes: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass``; sums to ``spp``.
+
+    Every value in ``checkpoints`` (≤ spp) is also made a pass boundary.
+    """
+    stops = sorted({c for c in checkpoints if 0 < c < spp})
     sizes: list[int] = []
     done = 0
     while done < spp:
         size = 1 if done == 0 else min(done, max_pass)
         size = min(size, spp - done)
+        nxt = next((c for c in stops if c > done), None)
+        if nxt is not None:
+            size = min(size, nxt - done)
         sizes.append(size)
         done += size
     return sizes
@@ -118,6 +125,7 @@ def render(
     on_pass: Callable[[int, float, Film], None] | None = None,
     stop: threading.Event | None = None,
     time_limit: float | None = None,
+    checkpoints: tuple[int, ...] = (),
 ) -> tuple[np.ndarray, RenderStats]:
     """Render ``scene``.
 
@@ -138,6 +146,8 @@ def render(
         passes only.
     time_limit
         Stop at the last pass boundary that fits in this many seconds.
+    checkpoints
+        Sample counts that must be pass boundaries (so ``on_pass`` sees them).
 
     Returns
     -------
@@ -151,7 +161,8 @@ def render(
     cam = scene.camera
     film = Film(cam.width, cam.height, scene.filter)
     units = []
-    for p, size in enumerate(pass_schedule(spp)):
+    sizes = pass_schedule(spp, checkpoints=checkpoints)
+    for p, size in enumerate(sizes):
         for t, tile in enumerate(tiles_for(cam.width, cam.height, size)):
             units.append((p, t, tile, size))
     pass_last = {}
@@ -165,7 +176,6 @@ def render(
     done_spp = 0
     done_samples = 0
     halt = threading.Event()
-    sizes = pass_schedule(spp)
 
     def job(u):
         if halt.is_set() or (stop is not None and stop.is_set()):

@@ -1,0 +1,59 @@
+"""``brdflab report SCENE.xml``: variance comparison of the integrators, error against run time."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from brdflab.errors import BrdflabError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` sub-command."""
+    p = sub.add_parser("report", help="compare integrators: error against run time, HTML report",
+                       description="Render SCENE with each integrator progressively up to the largest spp, measure "
+                       "the error of every checkpoint against a reference, and write CSV/JSON, plots, figures "
+                       "and a self-contained report.html.")
+    p.add_argument("scene", type=Path)
+    p.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis",
+                   help="comma-separated integrators (default: direct_ems,direct_mats,direct_mis)")
+    p.add_argument("--spp", default="1,4,16,64,256", help="comma-separated sample counts (default: 1,4,16,64,256)")
+    p.add_argument("--ref", type=Path, help="reference EXR (default: a high-spp direct_mis render made first)")
+    p.add_argument("--ref-spp", type=int, help="spp of the self-made reference (default: 4 × the largest spp)")
+    p.add_argument("--workers", type=int)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
+    p.set_defaults(func=run)
+
+
+def _ints(text: str, what: str) -> list[int]:
+    try:
+        values = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise BrdflabError(f"{what}: expected comma-separated integers, got '{text}'") from None
+    if not values or min(values) < 1:
+        raise BrdflabError(f"{what}: sample counts must be positive, got '{text}'")
+    return values
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the study and write the report."""
+    from brdflab.report.index import write_index
+    from brdflab.report.variance import run_study, summary, write_report
+    from brdflab.scene.loader import PLUGINS
+
+    integrators = [t.strip() for t in args.integrators.split(",") if t.strip()]
+    for name in integrators:
+        if name not in PLUGINS["integrator"]:
+            raise BrdflabError(f"unknown integrator '{name}'; valid: {', '.join(PLUGINS['integrator'])}")
+    spp = _ints(args.spp, "--spp")
+    out = args.output or Path("reports") / args.scene.stem
+    study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
+                      progress=lambda msg: print(msg, file=sys.stderr))
+    path = write_report(study, out)
+    write_index(out.parent)
+    for line in summary(study):
+        print(line)
+    print(f"wrote {path}", file=sys.stderr)
+    return 0
