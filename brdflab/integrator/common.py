@@ -98,16 +98,35 @@ def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> Shading
 
 
 def by_group(ids: np.ndarray):
-    """Yield (group id, indices) for each distinct non-negative id (a loop over materials/emitters)."""
+    """Yield (group id, selector) for each distinct non-negative id (a loop over materials/emitters).
+
+    The selector is ``slice(None)`` when one group covers the whole batch (no copies), otherwise an
+    index array. Few groups are split with one comparison each, many with one stable argsort.
+    """
     if len(ids) == 0:
         return
+    lo, hi = int(ids.min()), int(ids.max())
+    if lo == hi:
+        if lo >= 0:
+            yield lo, slice(None)
+        return
+    groups = np.unique(ids) if hi - lo > 64 else np.flatnonzero(np.bincount(ids - lo)) + lo
+    if len(groups) <= 8:
+        for g in groups:
+            if g >= 0:
+                yield int(g), np.flatnonzero(ids == g)
+        return
     order = np.argsort(ids, kind="stable")
-    sorted_ids = ids[order]
-    bounds = np.flatnonzero(np.diff(sorted_ids)) + 1
+    bounds = np.flatnonzero(np.diff(ids[order])) + 1
     for chunk in np.split(order, bounds):
         g = int(ids[chunk[0]])
         if g >= 0:
             yield g, chunk
+
+
+def any_positive(rgb: np.ndarray) -> np.ndarray:
+    """True where any of the three channels is > 0 (column-wise: faster than a reduction over axis 1)."""
+    return (rgb[:, 0] > 0) | (rgb[:, 1] > 0) | (rgb[:, 2] > 0)
 
 
 def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False):
@@ -165,14 +184,14 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     delta = np.zeros(m, bool)
     if m == 0 or not scene.emitters:
         return LightSamples(wi, radiance, pdf, delta)
-    choice = choose_emitters(scene, u[:, 0])
+    choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
     for e, sel in by_group(choice):
         em = scene.emitters[e]
         r = em.sample(sp.p[sel], u[sel, 1:4])
         wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
         pdf[sel] = r.pdf * scene.emitter_pmf[e]
         delta[sel] = em.is_delta
-    live = np.flatnonzero((pdf > 0) & np.any(radiance > 0, axis=1))
+    live = np.flatnonzero((pdf > 0) & any_positive(radiance))
     if len(live):
         g = scene.geometry
         o = g.offset_origin(sp.p[live], sp.ng[live], wi[live])
@@ -211,5 +230,5 @@ def cos_theta(w_local: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "background", "trace_camera", "shading_points", "by_group",
-           "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters", "dot",
+           "any_positive", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters", "dot",
            "cos_theta"]

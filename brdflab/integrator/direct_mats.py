@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, emission_along, sample_bsdfs, trace_camera
+from brdflab.integrator.common import Integrator, any_positive, emission_along, sample_bsdfs, trace_camera
 
 
 def bsdf_rays(scene, sp, u: np.ndarray):
@@ -29,7 +29,7 @@ def bsdf_rays(scene, sp, u: np.ndarray):
         solid-angle pdf with which light sampling would pick that direction (selection included).
     """
     wo, weight, pdf = sample_bsdfs(scene, sp, u)
-    live = np.flatnonzero(np.any(weight > 0, axis=1))
+    live = np.flatnonzero(any_positive(weight))
     d = sp.world(wo[live], live)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = scene.geometry.offset_origin(sp.p[live], sp.ng[live], d)
