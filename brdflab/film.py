@@ -78,15 +78,18 @@ class Camera:
         """Rays through continuous pixel positions; returns (origins, unit directions, tmax)."""
         a = self.width / self.height
         t = np.tan(np.radians(self.fov) * 0.5)
-        dc = np.stack([(1.0 - 2.0 * px / self.width) * t, (1.0 - 2.0 * py / self.height) * t / a,
-                       np.ones_like(px)], axis=1)
-        dc /= np.linalg.norm(dc, axis=1, keepdims=True)
-        m = self.to_world if self.to_world is not None else Transform()
-        d = m.apply_vectors(dc)
-        o = np.broadcast_to(m.origin(), d.shape)
-        inv_dz = 1.0 / dc[:, 2]
-        o = o + d * (self.near * inv_dz)[:, None]
-        return o, d, (self.far - self.near) * inv_dz
+        x = (1.0 - 2.0 * px / self.width) * t
+        y = (1.0 - 2.0 * py / self.height) * (t / a)
+        inv_len = 1.0 / np.sqrt(x * x + y * y + 1.0)  # = d̂_z
+        xf = self.to_world if self.to_world is not None else Transform()
+        m, origin = xf.matrix, xf.origin()
+        d = np.empty((len(px), 3), order="F")
+        o = np.empty((len(px), 3), order="F")
+        near = self.near / inv_len  # t_min = near / d̂_z, applied by moving the origin along the ray
+        for j in range(3):
+            d[:, j] = (m[j, 0] * x + m[j, 1] * y + m[j, 2]) * inv_len
+            o[:, j] = origin[j] + d[:, j] * near
+        return o, d, (self.far - self.near) / inv_len
 
 
 class Filter:

@@ -90,9 +90,10 @@ class AreaEmitter(Emitter):
         front = cos_l > 0
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = np.where(front, dist2 / (self.area * np.abs(cos_l)), 0.0)
-        radiance = np.where(front[:, None], self.le(h.uv), 0.0)
         ok = front & np.isfinite(pdf) & (pdf > 0)
-        return EmitterSample(wi, dist, np.where(ok[:, None], radiance, 0.0), np.where(ok, pdf, 0.0))
+        radiance = np.zeros((len(prim), 3), order="F")
+        radiance[ok] = self.le(h.uv[ok]) if not self.radiance.constant else self.radiance.value * self.scale
+        return EmitterSample(wi, dist, radiance, np.where(ok, pdf, 0.0))
 
     def eval_hit(self, ns: np.ndarray, uv: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Radiance arriving along rays of direction ``d`` that hit this emitter (shading normal ``ns``)."""

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.math.frame import dot, frame_from_normal, to_local, to_world
+from brdflab.math.frame import dot, frame_from_normal, take_rows, to_local, to_world
 from brdflab.scene.geometry import Hits
 from brdflab.scene.properties import PropertyList
 
@@ -77,7 +77,7 @@ def background(scene, d: np.ndarray) -> np.ndarray:
 def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, Hits, ShadingPoints]:
     """Trace camera rays; apply the miss and emitter-hit rules; return (L, hits, shading points)."""
     hits = scene.geometry.intersect(o, d, tmax)
-    L = np.zeros((len(o), 3))
+    L = np.zeros((len(o), 3), order="F")
     miss = ~hits.valid
     if miss.any():
         L[miss] = background(scene, d[miss])
@@ -90,11 +90,11 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
     """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints`."""
-    ns = hits.ns[idx]
+    ns = take_rows(hits.ns, idx)
     s, t = frame_from_normal(ns)
-    wi = to_local(-d[idx], s, t, ns)
-    return ShadingPoints(idx, hits.p[idx], hits.ng[idx], ns, s, t, hits.uv[idx], wi,
-                         scene.mesh_bsdf[hits.mesh[idx]])
+    wi = to_local(-take_rows(d, idx), s, t, ns)
+    return ShadingPoints(idx, take_rows(hits.p, idx), take_rows(hits.ng, idx), ns, s, t, take_rows(hits.uv, idx), wi,
+                         scene.mesh_bsdf[np.take(hits.mesh, idx)])
 
 
 def by_group(ids: np.ndarray):
@@ -131,7 +131,7 @@ def any_positive(rgb: np.ndarray) -> np.ndarray:
 
 def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False):
     """f(wi, wo) (M, 3) for local ``wo``; with ``with_pdf`` also the BSDF sampling density (M,)."""
-    f = np.zeros((len(wo), 3))
+    f = np.zeros((len(wo), 3), order="F")
     pdf = np.zeros(len(wo)) if with_pdf else None
     for b, sel in by_group(sp.bsdf):
         bsdf = scene.bsdfs[b]
@@ -144,8 +144,8 @@ def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False)
 def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One BSDF sample per point: (local wo, weight f·cos/pdf, pdf)."""
     m = len(u)
-    wo = np.zeros((m, 3))
-    weight = np.zeros((m, 3))
+    wo = np.zeros((m, 3), order="F")
+    weight = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     for b, sel in by_group(sp.bsdf):
         r = scene.bsdfs[b].sample(sp.wi[sel], u[sel], sp.uv[sel])
@@ -176,9 +176,9 @@ def choose_emitters(scene, u: np.ndarray) -> np.ndarray:
 def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]``; trace shadow rays."""
     m = len(sp.p)
-    wi = np.zeros((m, 3))
+    wi = np.zeros((m, 3), order="F")
     wi[:, 2] = 1.0
-    radiance = np.zeros((m, 3))
+    radiance = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     dist = np.zeros(m)
     delta = np.zeros(m, bool)
@@ -187,15 +187,16 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
     for e, sel in by_group(choice):
         em = scene.emitters[e]
-        r = em.sample(sp.p[sel], u[sel, 1:4])
+        r = em.sample(sp.p[sel], u[sel, 1:4] if isinstance(sel, slice) else take_rows(u, sel)[:, 1:4])
         wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
         pdf[sel] = r.pdf * scene.emitter_pmf[e]
         delta[sel] = em.is_delta
     live = np.flatnonzero((pdf > 0) & any_positive(radiance))
     if len(live):
         g = scene.geometry
-        o = g.offset_origin(sp.p[live], sp.ng[live], wi[live])
-        blocked = g.occluded(o, wi[live], g.shadow_tmax(dist[live]))
+        wl = take_rows(wi, live)
+        o = g.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), wl)
+        blocked = g.occluded(o, wl, g.shadow_tmax(dist[live]))
         radiance[live[blocked]] = 0.0
     return LightSamples(wi, radiance, pdf, delta)
 
@@ -207,7 +208,7 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     g = scene.geometry
     hits = g.intersect(o, d)
     m = len(o)
-    Le = np.zeros((m, 3))
+    Le = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
     for e, sel in by_group(em):

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.math.frame import dot
+from brdflab.math.frame import dot, stack_cols
 from brdflab.scene.obj import Mesh
 
 #: Relative ray epsilon (spec §7.2).
@@ -163,7 +163,7 @@ class Geometry:
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
             # packed rows: k components of v0, then of v1 − v0, then of v2 − v0 (one 1-D gather each).
-            out = np.empty((n, k))
+            out = np.empty((n, k), order="F")
             for j in range(k):
                 out[:, j] = np.take(packed[j], pr)
                 out[:, j] += bu * np.take(packed[k + j], pr)
@@ -171,7 +171,7 @@ class Geometry:
             return out
 
         p = interp(self.tri_pos, 3)
-        ng = np.empty((n, 3))
+        ng = np.empty((n, 3), order="F")
         for j in range(3):
             ng[:, j] = np.take(self.face_normals_t[j], pr)
         if self.tri_nrm is not None:
@@ -184,7 +184,7 @@ class Geometry:
                 ns[bad] = ng[bad]
         else:
             ns = ng
-        uv = interp(self.tri_uv, 2) if self.tri_uv is not None else np.stack([bu, bv], axis=1)
+        uv = interp(self.tri_uv, 2) if self.tri_uv is not None else stack_cols(bu, bv)
         mesh = np.where(valid, np.take(self.tri_mesh, pr), -1)
         return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
 
