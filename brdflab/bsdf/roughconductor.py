@@ -1,0 +1,103 @@
+"""``roughconductor``: Beckmann microfacet conductor with Schlick Fresnel (spec §10.5; PBR §8.4).
+
+=============  ===========================================  =======  ============================================
+parameter      tag                                          default  meaning
+=============  ===========================================  =======  ============================================
+``R0``         color, or child ``texture name="R0"``        0.5      reflectance at normal incidence (Schlick)
+``alpha``      float, or child ``texture name="alpha"``     0.1      Beckmann roughness α (> 0; a texture's
+                                                                     luminance is used)
+=============  ===========================================  =======  ============================================
+
+Evaluation (Torrance–Sparrow, PBR eq. 8.18 without the extra cos θ_h, as the course references require):
+
+    f(ω_i, ω_o) = D(ω_h) · F_Schlick(ω_h·ω_i; R0) · G1(ω_i, ω_h) G1(ω_o, ω_h) / (4 cos θ_i cos θ_o),
+
+ω_h = normalize(ω_i + ω_o), zero unless cos θ_i, cos θ_o > 0; D and G1 in :mod:`brdflab.bsdf.microfacet`.
+
+Sampling: ω_h from the Beckmann warp (density D cos θ_h), ω_o = reflect(ω_i, ω_h), so
+p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|) (PBR eq. 8.13); weight = f cos θ_o / p. Samples whose ω_o lies
+below the surface keep their direction and density but get weight 0; samples from microfacets facing away
+from ω_i (ω_i·ω_h ≤ 0) fail (pdf 0): those directions cannot be produced consistently.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from brdflab.bsdf.base import BSDF, BSDFSample, cos_weight, uv_or_zeros
+from brdflab.bsdf.fresnel import fresnel_schlick
+from brdflab.bsdf.microfacet import beckmann_d, half_vector, reflect, reflection_pdf, smith_g1
+from brdflab.math import warps
+from brdflab.scene.properties import PropertyList
+from brdflab.texture import Texture, as_texture
+
+LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+
+
+def alpha_values(tex: Texture, uv: np.ndarray | None, n: int) -> np.ndarray | float:
+    """Roughness per query: the constant, or the luminance of a texture at ``uv``."""
+    if tex.constant:
+        return float(LUMINANCE @ tex.mean())  # the weights sum to 1, so a grey value is kept exactly
+    return tex.eval(uv_or_zeros(uv, n)) @ LUMINANCE
+
+
+def check_alpha(props: PropertyList) -> float:
+    """Read ``alpha`` and require a finite value > 0."""
+    return props.positive_float("alpha", 0.1)
+
+
+class RoughConductor(BSDF):
+    """Beckmann rough conductor with a Schlick Fresnel term (see module docstring)."""
+
+    type_name = "roughconductor"
+    texture_slots = ("R0", "alpha")
+    KNOWN = {"R0": "color", "alpha": "float"}
+
+    def __init__(self, r0: Texture | np.ndarray | float = 0.5, alpha: Texture | float = 0.1) -> None:
+        self.R0 = as_texture(r0)
+        self.alpha = as_texture(alpha)
+
+    @classmethod
+    def from_properties(cls, props: PropertyList) -> RoughConductor:
+        """Build from a ``<bsdf type="roughconductor">`` property list."""
+        props.check_known(cls.KNOWN)
+        return cls(props.nonnegative_color("R0", np.full(3, 0.5)), check_alpha(props))
+
+    @property
+    def alpha_value(self) -> float:
+        """The (mean) roughness, for reports."""
+        return float(np.mean(self.alpha.mean()))
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """f(ω_i, ω_o) (N, 3), without the cosine."""
+        n = len(wi)
+        a = alpha_values(self.alpha, uv, n)
+        ci, co = wi[:, 2], wo[:, 2]
+        wh, okh = half_vector(wi, wo)
+        ok = (ci > 0) & (co > 0) & okh
+        d = beckmann_d(wh[:, 2], a)
+        g = smith_g1(wi, wh, a) * smith_g1(wo, wh, a)
+        hi = np.clip(wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2], 0.0, 1.0)
+        f = fresnel_schlick(hi, self.R0.eval(uv_or_zeros(uv, n)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(ok, d * g / (4.0 * ci * co), 0.0)
+        s = np.where(np.isfinite(s), s, 0.0)
+        return f * s[:, None]
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|), 0 for cos θ_i ≤ 0 or ω_i·ω_h ≤ 0."""
+        a = alpha_values(self.alpha, uv, len(wi))
+        wh, okh = half_vector(wi, wo)
+        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
+        ok = (wi[:, 2] > 0) & okh & (hi > 0)
+        return np.where(ok, reflection_pdf(wh, wo, a), 0.0)
+
+    def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
+        """Sample ω_h ∝ D cos θ_h and reflect ω_i about it."""
+        a = alpha_values(self.alpha, uv, len(wi))
+        wh = warps.square_to_beckmann(u[:, :2], a)
+        wo = reflect(wi, wh)
+        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
+        ok = (wi[:, 2] > 0) & (hi > 0)
+        pdf = np.where(ok, reflection_pdf(wh, wo, a), 0.0)
+        return BSDFSample(wo, cos_weight(self.eval(wi, wo, uv), wo, pdf), pdf)

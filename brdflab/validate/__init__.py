@@ -1,0 +1,1 @@
+"""Statistical validation of materials and warps: chi-square, consistency, furnace, stability."""
