@@ -1,0 +1,166 @@
+"""``environment``: a lat-long HDR map around the scene, importance-sampled (spec §9.3, §16.1–16.2).
+
+==============  ======  =========  =========================================================================
+parameter       tag     default    meaning
+==============  ======  =========  =========================================================================
+``filename``    string  (none)     OpenEXR lat-long map (half or float, any compression); without it the
+                                   environment is the constant ``radiance`` (no 1/255 factor)
+``radiance``    color   (1,1,1)    multiplier
+``rotate``      float   0          accepted but **ignored**, as in the course code (every user scene has
+                                   180); ``EnvironmentEmitter(apply_rotate=True)`` applies it as a rotation
+                                   about +Y that shifts u by rotate/360
+==============  ======  =========  =========================================================================
+
+Lookup, exactly as the course code (spec §9.3): for a unit world direction ω,
+φ = atan2(ω_z, ω_x) wrapped to [0, 2π), θ = arccos(ω_y), u = φ/2π, v = θ/π, continuous texel position
+x = (1 − u)·W, y = (1 − v)·H with texel (c, r) at the integer point (c, r) and row 0 at the top;
+bilinear blend of texels (⌊x⌋, ⌊y⌋) … (⌊x⌋+1, ⌊y⌋+1) with indices wrapped modulo W and H; the
+result is divided by 255 and multiplied by ``radiance``. Consequently +Y looks up the **bottom** rows
+(a sky-on-top map appears upside down, as in the course) and φ runs toward decreasing columns.
+
+Importance sampling: a :class:`~brdflab.math.distribution.Distribution2D` over the cells
+[c, c+1) × [r, r+1) of the (x, y) domain with weight (mean luminance of the cell's four corner texels)
+× sin θ(cell centre) — the cell integral of the bilinear map times the solid-angle Jacobian — so every
+direction with non-zero radiance has non-zero density. A point (x, y) maps back to a direction, and
+since dω = sin θ dθ dφ = sin θ (π/H)(2π/W) dx dy the solid-angle density is
+
+    p_ω(ω) = p_xy(x, y) · W H / (2π² sin θ).
+
+``pdf(ω)`` evaluates exactly this density, which is what MIS needs.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from brdflab.emitter.area import LUMINANCE
+from brdflab.emitter.base import Emitter, EmitterSample
+from brdflab.errors import ImageError, SceneError
+from brdflab.math.distribution import Distribution2D
+from brdflab.math.frame import stack_cols
+from brdflab.scene.properties import PropertyList
+
+
+class EnvironmentEmitter(Emitter):
+    """Infinitely distant lat-long environment light (see module docstring).
+
+    Parameters
+    ----------
+    image
+        (H, W, 3) linear texels, or None for a constant environment.
+    radiance
+        Multiplier (3,).
+    rotate
+        Rotation in degrees (used only with ``apply_rotate``).
+    apply_rotate
+        Apply ``rotate`` as a rotation about +Y (the course code ignores it).
+    """
+
+    type_name = "environment"
+    is_environment = True
+    KNOWN = {"filename": "string", "radiance": "color", "rotate": "float"}
+
+    def __init__(self, image: np.ndarray | None, radiance: np.ndarray, rotate: float = 0.0,
+                 apply_rotate: bool = False) -> None:
+        self.radiance = np.asarray(radiance, dtype=np.float64)
+        self.rotate = float(rotate)
+        self.u_shift = (self.rotate / 360.0) if apply_rotate else 0.0
+        self.image = None
+        if image is not None:
+            img = np.asarray(image, dtype=np.float64)
+            if not np.all(np.isfinite(img)) or np.any(img < 0):
+                warnings.warn("environment map has negative or non-finite texels; they are set to 0", stacklevel=2)
+                img = np.where(np.isfinite(img) & (img > 0), img, 0.0)
+            self.image = img
+            self.h, self.w = img.shape[:2]
+            self._scaled = img * (self.radiance / 255.0)  # texels already multiplied by radiance/255
+            lum = img @ LUMINANCE
+            corners = (lum + np.roll(lum, -1, axis=1) + np.roll(lum, -1, axis=0)
+                       + np.roll(np.roll(lum, -1, axis=0), -1, axis=1)) / 4.0
+            theta_c = np.pi * (1.0 - (np.arange(self.h) + 0.5) / self.h)
+            self.dist = Distribution2D(corners * np.sin(theta_c)[:, None])
+
+    @classmethod
+    def from_properties(cls, props: PropertyList, resolve_path) -> EnvironmentEmitter:
+        """Build from an ``<emitter type="environment">``; ``resolve_path(name)`` finds the map file."""
+        from brdflab.imageio import read_exr
+
+        props.check_known(cls.KNOWN)
+        radiance = props.nonnegative_color("radiance", np.ones(3))
+        rotate = props.get_float("rotate", 0.0)
+        name = props.get_string("filename", "")
+        image = None
+        if name and name != "null":
+            path = resolve_path(name)
+            if path is None:
+                raise props.error("filename", f"environment map '{name}' not found")
+            try:
+                image = read_exr(path)
+            except ImageError as exc:
+                raise SceneError(f"environment map: {exc}", *props.where("filename")) from None
+        return cls(image, radiance, rotate)
+
+    # -- mapping between directions and texel coordinates -------------------------------------------------
+    def _to_xy(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        phi = np.mod(np.arctan2(d[:, 2], d[:, 0]), 2 * np.pi)
+        cos_t = np.clip(d[:, 1], -1.0, 1.0)
+        u = np.mod(phi / (2 * np.pi) + self.u_shift, 1.0)
+        v = np.arccos(cos_t) / np.pi
+        return (1.0 - u) * self.w, (1.0 - v) * self.h, np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+
+    def _from_xy(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u = np.mod(1.0 - x / self.w - self.u_shift, 1.0)
+        v = 1.0 - y / self.h
+        phi, theta = 2 * np.pi * u, np.pi * v
+        st = np.sin(theta)
+        return stack_cols(st * np.cos(phi), np.cos(theta), st * np.sin(phi)), st
+
+    # -- emitter interface -------------------------------------------------------------------------------
+    def eval(self, d: np.ndarray) -> np.ndarray:
+        """Radiance (N, 3) arriving from unit world directions ``d``."""
+        if self.image is None:
+            return np.broadcast_to(self.radiance, (len(d), 3)).copy()
+        x, y, _ = self._to_xy(d)
+        ix, iy = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+        fx, fy = (x - ix)[:, None], (y - iy)[:, None]
+        x0, x1 = ix % self.w, (ix + 1) % self.w
+        y0, y1 = iy % self.h, (iy + 1) % self.h
+        t = self._scaled
+        out = (t[y0, x0] * ((1 - fx) * (1 - fy)) + t[y0, x1] * (fx * (1 - fy))
+               + t[y1, x0] * ((1 - fx) * fy) + t[y1, x1] * (fx * fy))
+        return np.asfortranarray(out)
+
+    def pdf(self, d: np.ndarray) -> np.ndarray:
+        """Solid-angle density (N,) with which :meth:`sample` produces the directions ``d``."""
+        if self.image is None:
+            return np.full(len(d), 0.25 / np.pi)
+        x, y, st = self._to_xy(d)
+        p = self.dist.pdf(stack_cols(np.minimum(x, np.nextafter(self.w, 0)), np.minimum(y, np.nextafter(self.h, 0))))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = p * (self.w * self.h) / (2 * np.pi**2 * st)
+        return np.where((st > 0) & np.isfinite(out), out, 0.0)
+
+    def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
+        """Importance-sample a direction (∝ luminance × sin θ); distance is infinite."""
+        n = len(ref_p)
+        if self.image is None:
+            from brdflab.math import warps
+
+            d = warps.square_to_uniform_sphere(u[:, :2])
+            return EmitterSample(d, np.full(n, np.inf), self.eval(d), np.full(n, 0.25 / np.pi))
+        pts, p_xy = self.dist.sample(u[:, :2])
+        d, st = self._from_xy(pts[:, 0], pts[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pdf = p_xy * (self.w * self.h) / (2 * np.pi**2 * st)
+        ok = (st > 0) & np.isfinite(pdf) & (pdf > 0)
+        radiance = self.eval(d)
+        radiance[~ok] = 0.0
+        return EmitterSample(d, np.full(n, np.inf), radiance, np.where(ok, pdf, 0.0))
+
+    def power(self) -> float:
+        """Luminance of the mean radiance (over the sphere), a relative power for emitter selection."""
+        if self.image is None:
+            return float(LUMINANCE @ self.radiance) * 4 * np.pi
+        return float(LUMINANCE @ self._scaled.mean(axis=(0, 1))) * 4 * np.pi

@@ -1,0 +1,93 @@
+"""Piecewise-constant 1-D and 2-D distributions for importance sampling (PBR §13.6.5 and §13.6.7).
+
+``Distribution2D`` over an H × W grid of non-negative cell weights w(r, c) on the domain
+[0, W) × [0, H) (x = column, y = row): the marginal picks a row with probability Σ_c w(r, c) / Σ w,
+the conditional a column in it with probability w(r, c) / Σ_c w(r, c); the point is uniform inside the
+cell, so its density is p(x, y) = w(r, c) / Σ w per unit area. Sampling is vectorised with
+``np.searchsorted`` on the cumulative sums; the uniforms are reused (rescaled) for the position inside
+the chosen cell, which keeps stratification. All-zero weights fall back to the uniform distribution.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Distribution1D:
+    """Piecewise-constant distribution over n equal cells of [0, n).
+
+    Parameters
+    ----------
+    weights
+        Non-negative cell weights (n,).
+    """
+
+    def __init__(self, weights: np.ndarray) -> None:
+        w = np.asarray(weights, dtype=np.float64)
+        if w.ndim != 1 or len(w) == 0:
+            raise ValueError("Distribution1D needs a non-empty 1-D weight array")
+        w = np.where(np.isfinite(w) & (w > 0), w, 0.0)
+        total = w.sum()
+        if total <= 0:
+            w = np.ones_like(w)
+            total = float(len(w))
+        self.pmf = w / total
+        self.cdf = np.concatenate([[0.0], np.cumsum(self.pmf)])
+        self.cdf[-1] = 1.0
+        self.n = len(w)
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return (cell index, continuous position in [0, n), probability of the cell) for uniforms u."""
+        idx = np.clip(np.searchsorted(self.cdf, u, side="right") - 1, 0, self.n - 1)
+        # Zero-probability cells have zero width in the CDF and are never selected.
+        p = self.pmf[idx]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.where(p > 0, (u - self.cdf[idx]) / p, 0.5)
+        return idx, idx + np.clip(off, 0.0, np.nextafter(1.0, 0.0)), p
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        """Density at continuous positions x ∈ [0, n) (per unit length)."""
+        i = np.clip(np.floor(x).astype(np.int64), 0, self.n - 1)
+        return np.where((x >= 0) & (x <= self.n), self.pmf[i], 0.0)
+
+
+class Distribution2D:
+    """Piecewise-constant distribution over an (H, W) grid of cells on [0, W) × [0, H)."""
+
+    def __init__(self, weights: np.ndarray) -> None:
+        w = np.asarray(weights, dtype=np.float64)
+        if w.ndim != 2 or w.size == 0:
+            raise ValueError("Distribution2D needs a non-empty 2-D weight array")
+        w = np.where(np.isfinite(w) & (w > 0), w, 0.0)
+        if w.sum() <= 0:
+            w = np.ones_like(w)
+        self.h, self.w = w.shape
+        self.density = w / w.sum()  # probability of each cell = density per unit area (cells are 1 × 1)
+        self.marginal = Distribution1D(w.sum(axis=1))
+        rows = w.sum(axis=1, keepdims=True)
+        cond = np.where(rows > 0, w / np.where(rows > 0, rows, 1.0), 1.0 / self.w)
+        self.cond_pmf = cond
+        cdf = np.concatenate([np.zeros((self.h, 1)), np.cumsum(cond, axis=1)], axis=1)
+        cdf[:, -1] = 1.0
+        self.cond_cdf = cdf
+        # Row-offset CDF so that one searchsorted finds the column within each sample's own row.
+        self._flat = (cdf[:, :-1] + np.arange(self.h)[:, None]).ravel()
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sample points (N, 2) = (x, y) for uniforms (N, 2); return (points, density per unit area)."""
+        row, y, _ = self.marginal.sample(u[:, 1])
+        flat = np.searchsorted(self._flat, row + u[:, 0], side="right") - 1
+        col = np.clip(flat - row * self.w, 0, self.w - 1)
+        p = self.cond_pmf[row, col]
+        lo = self.cond_cdf[row, col]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.where(p > 0, (u[:, 0] - lo) / p, 0.5)
+        x = col + np.clip(off, 0.0, np.nextafter(1.0, 0.0))
+        return np.stack([x, y], axis=1), self.density[row, col]
+
+    def pdf(self, pts: np.ndarray) -> np.ndarray:
+        """Density per unit area at points (N, 2) = (x, y)."""
+        c = np.clip(np.floor(pts[:, 0]).astype(np.int64), 0, self.w - 1)
+        r = np.clip(np.floor(pts[:, 1]).astype(np.int64), 0, self.h - 1)
+        inside = (pts[:, 0] >= 0) & (pts[:, 0] <= self.w) & (pts[:, 1] >= 0) & (pts[:, 1] <= self.h)
+        return np.where(inside, self.density[r, c], 0.0)

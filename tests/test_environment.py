@@ -1,0 +1,188 @@
+"""Environment emitter: course lookup conventions, importance sampling vs pdf, and 2-D distributions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from brdflab.emitter.environment import EnvironmentEmitter
+from brdflab.errors import BrdflabError
+from brdflab.imageio import read_exr, write_exr
+from brdflab.math.distribution import Distribution1D, Distribution2D
+from brdflab.validate import chi2 as c2
+from tests.conftest import SHARED
+
+
+def test_distribution1d_frequencies_and_zero_cells():
+    w = np.array([0.0, 1.0, 3.0, 0.0, 6.0])
+    d = Distribution1D(w)
+    idx, x, p = d.sample(np.random.default_rng(0).random(200_000))
+    counts = np.bincount(idx, minlength=5)
+    assert counts[0] == 0 and counts[3] == 0
+    assert stats.chisquare(counts[[1, 2, 4]], 200_000 * w[[1, 2, 4]] / 10).pvalue > 0.01
+    assert np.all((x >= idx) & (x < idx + 1))
+    np.testing.assert_allclose(p, w[idx] / 10)
+
+
+def test_distribution2d_matches_its_pdf():
+    rng = np.random.default_rng(1)
+    w = rng.random((6, 9)) ** 3
+    w[2] = 0.0  # an empty row
+    d = Distribution2D(w)
+    pts, p = d.sample(rng.random((300_000, 2)))
+    np.testing.assert_allclose(p, d.pdf(pts))
+    counts, _, _ = np.histogram2d(pts[:, 1], pts[:, 0], bins=[np.arange(7), np.arange(10)])
+    assert counts[2].sum() == 0
+    exp = 300_000 * w / w.sum()
+    ok = exp > 0
+    assert stats.chisquare(counts[ok], exp[ok]).pvalue > 0.01
+    assert d.density.sum() == pytest.approx(1.0)
+
+
+def test_distribution_all_zero_is_uniform():
+    d = Distribution2D(np.zeros((3, 4)))
+    np.testing.assert_allclose(d.density, 1 / 12)
+
+
+def _dirs(*vs):
+    v = np.array(vs, dtype=float)
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _map_with_marks(w=64, h=32):
+    img = np.full((h, w, 3), 1.0, np.float32)
+    img[:, 0] = [255, 0, 0]          # column 0  ← +X
+    img[:, w // 2] = [0, 255, 0]     # column W/2 ← −X
+    img[:, 3 * w // 4] = [0, 0, 255]  # column 3W/4 ← +Z
+    img[:, w // 4] = [255, 255, 0]   # column W/4 ← −Z
+    return img
+
+
+def test_lookup_orientation():
+    img = _map_with_marks()
+    env = EnvironmentEmitter(img, np.array([2.0, 2.0, 2.0]))
+    horizon = _dirs([1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1])
+    L = env.eval(horizon)
+    # /255 and the radiance multiplier; texel (c, r) sits at the integer point (c, r).
+    np.testing.assert_allclose(L[0], [2, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(L[1], [0, 2, 0], atol=1e-9)
+    np.testing.assert_allclose(L[2], [0, 0, 2], atol=1e-9)
+    np.testing.assert_allclose(L[3], [2, 2, 0], atol=1e-9)
+
+
+def test_up_reads_the_bottom_rows():
+    """θ = 1.5π/H (near +Y) gives y = H − 1.5: the two bottom rows; θ = π − 0.5π/H gives y = 0.5: the top rows."""
+    h = 16
+    img = np.zeros((h, 32, 3), np.float32)
+    img[-2:] = 255.0  # two bottom rows bright
+    img[:2] = 51.0  # two top rows dimmer
+    env = EnvironmentEmitter(img, np.ones(3))
+    t = 1.5 * np.pi / h
+    up = env.eval(_dirs([np.sin(t), np.cos(t), 0]))
+    t2 = 0.5 * np.pi / h  # y = 0.5: rows 0 and 1
+    down = env.eval(_dirs([np.sin(t2), -np.cos(t2), 0]))
+    np.testing.assert_allclose(up[0], 1.0, atol=1e-9)
+    np.testing.assert_allclose(down[0], 0.2, atol=1e-9)
+
+
+def test_missing_map_is_an_error_and_constant_without_filename(tmp_path):
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import CAMERA, write_scene
+
+    p = write_scene(tmp_path, '<integrator type="direct_ems"/>' + CAMERA
+                    + '<emitter type="environment"><string name="filename" value="nope.exr"/></emitter>')
+    with pytest.raises(BrdflabError, match="environment map 'nope.exr' not found"):
+        load_scene(p)
+    env = EnvironmentEmitter(None, np.array([0.5, 1.0, 2.0]))
+    np.testing.assert_allclose(env.eval(_dirs([0, 1, 0], [1, 0, 0])), [[0.5, 1, 2]] * 2)
+    assert env.pdf(_dirs([0, 1, 0]))[0] == pytest.approx(1 / (4 * np.pi))
+
+
+def _chi2_env(env, pdf=None, n=200_000, seed=0, group=1):
+    """Chi-square with sphere bins aligned to the map's cells (groups of ``group``² cells).
+
+    The correct density times sin θ is constant on each cell, so Gauss–Legendre gives exact expected
+    counts; a density with the wrong Jacobian is not constant there and is caught.
+    """
+    pdf = pdf or env.pdf
+    r = env.sample(np.zeros((n, 3)), np.random.default_rng(seed).random((n, 3)))
+    x, y, _ = env._to_xy(r.wi[r.pdf > 0])
+    h, w = env.h, env.w
+    col = np.clip(np.floor(x).astype(int), 0, w - 1) // group
+    row = np.clip(np.floor(y).astype(int), 0, h - 1) // group
+    nb_r, nb_c = -(-h // group), -(-w // group)
+    obs = np.bincount(row * nb_c + col, minlength=nb_r * nb_c).astype(float)
+    # Cell (r, c) ↔ θ ∈ [π(1 − (r+1)/H), π(1 − r/H)], φ ∈ [2π(1 − (c+1)/W), 2π(1 − c/W)].
+    gx, gw = np.polynomial.legendre.leggauss(3)
+    rr, cc = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    t0, t1 = np.pi * (1 - (rr + 1) / h), np.pi * (1 - rr / h)
+    p0, p1 = 2 * np.pi * (1 - (cc + 1) / w), 2 * np.pi * (1 - cc / w)
+    exp_cells = np.zeros((h, w))
+    for i in range(3):
+        for j in range(3):
+            th = 0.5 * (t1 - t0) * gx[i] + 0.5 * (t0 + t1)
+            ph = 0.5 * (p1 - p0) * gx[j] + 0.5 * (p0 + p1)
+            d = np.stack([np.sin(th) * np.cos(ph), np.cos(th), np.sin(th) * np.sin(ph)], -1).reshape(-1, 3)
+            exp_cells += gw[i] * gw[j] * (pdf(d) * np.sin(th).ravel()).reshape(h, w)
+    exp_cells *= 0.25 * (t1 - t0) * (p1 - p0) * n
+    expected = np.bincount(((rr // group) * nb_c + cc // group).ravel(), exp_cells.ravel(), minlength=nb_r * nb_c)
+    stat, dof, pval = c2.pearson(obs, expected)
+    return c2.Chi2Result("env", {}, stat, dof, pval, integral=float(expected.sum() / n))
+
+
+def _synthetic_map(seed=0, w=48, h=24):
+    rng = np.random.default_rng(seed)
+    img = (rng.random((h, w, 3)) ** 4 * 255).astype(np.float32)
+    img[h // 3, w // 5] = [5e4, 4e4, 3e4]  # a small sun
+    img[:2] = 0.0  # dark rows
+    return img
+
+
+def test_sampling_matches_pdf():
+    env = EnvironmentEmitter(_synthetic_map(), np.ones(3))
+    r = _chi2_env(env)
+    assert r.passed, r.p_value
+    assert r.integral == pytest.approx(1.0, abs=2e-3)
+
+
+def test_pdf_without_sin_jacobian_is_rejected():
+    env = EnvironmentEmitter(_synthetic_map(), np.ones(3))
+
+    def wrong(d):
+        st = np.sqrt(np.maximum(0, 1 - d[:, 1] ** 2))
+        return env.pdf(d) * st * (np.pi / 2)
+
+    assert not _chi2_env(env, wrong).passed
+
+
+def test_estimator_is_unbiased():
+    """E[L/p] over importance samples equals ∫ L dω by quadrature over a fine (θ, φ) grid."""
+    env = EnvironmentEmitter(_synthetic_map(3), np.ones(3))
+    r = env.sample(np.zeros((400_000, 3)), np.random.default_rng(2).random((400_000, 3)))
+    est = r.radiance[:, 1] / r.pdf
+    th = (np.arange(1200) + 0.5) / 1200 * np.pi
+    ph = (np.arange(2400) + 0.5) / 2400 * 2 * np.pi
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    d = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3)
+    quad = (env.eval(d)[:, 1] * np.sin(T).ravel()).sum() * (np.pi / 1200) * (2 * np.pi / 2400)
+    assert abs(est.mean() - quad) < 4 * est.std() / np.sqrt(len(est)) + 1e-4 * quad
+
+
+def test_user_envmap_sampling():
+    p = SHARED / "assignment-3/bunny_env/envmap.exr"
+    if not p.exists():
+        pytest.skip("user scenes not available")
+    env = EnvironmentEmitter(read_exr(p), np.full(3, 200.0))
+    r = _chi2_env(env, n=300_000, seed=4, group=8)
+    assert r.passed, r.p_value
+
+
+def test_half_float_exr_roundtrip(tmp_path):
+    import OpenEXR
+
+    img = _synthetic_map().astype(np.float16)
+    OpenEXR.File({"compression": OpenEXR.PIZ_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"RGB": img}).write(str(tmp_path / "h.exr"))
+    np.testing.assert_allclose(read_exr(tmp_path / "h.exr"), img.astype(np.float32))
+    write_exr(tmp_path / "f.exr", img.astype(np.float32))
