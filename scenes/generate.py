@@ -240,8 +240,8 @@ def sky_map(w: int = 128, h: int = 64) -> np.ndarray:
     elev, azim = np.radians(35.0), 0.8
     sun_dir = np.array([np.cos(elev) * np.cos(azim), np.sin(elev), np.cos(elev) * np.sin(azim)])
     d = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], -1)
-    sun = (d @ sun_dir) > np.cos(np.radians(3.0))
-    sky[sun] = np.array([4000.0, 3600.0, 3000.0])
+    sun = (d @ sun_dir) > np.cos(np.radians(15.0))
+    sky[sun] = np.array([40.0, 36.0, 30.0])
     return sky.astype(np.float32)
 
 

@@ -71,13 +71,16 @@ def test_white_furnace_environment():
         on = hits.valid.reshape(64, scene.camera.height).T
         # Interior pixels of the sphere (the filter mixes edge pixels with the background).
         interior = on.copy()
-        for dy, dx in ((-2, 0), (2, 0), (0, -2), (0, 2)):
-            interior &= np.roll(on, (dy, dx), axis=(0, 1))
+        for dy in range(-3, 4):
+            for dx in range(-3, 4):
+                interior &= np.roll(on, (dy, dx), axis=(0, 1))
         vals = img[interior]
         assert interior.sum() > 50
         np.testing.assert_allclose(vals.mean(axis=0), 0.5, rtol=0.01, err_msg=name)
-        if name != "direct_mats":  # BSDF sampling of a diffuse sphere under a constant sky is noise-free
-            assert np.abs(vals - 0.5).max() < 0.1, name
+        if name == "direct_mats":
+            # Cosine sampling of a diffuse convex object under a constant sky: every sample weighs ρ·L, except
+            # the few grazing ones that the tessellated sphere (shading ≠ geometric normal) blocks.
+            assert np.abs(vals - 0.5).max() < 0.01, name
 
 
 def _plate_masks(scene) -> dict[float, np.ndarray]:

@@ -25,13 +25,13 @@ def test_ctrl_c_writes_partial_image(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "cli.main", "render", str(scene), "--spp", "100000"],
                             stderr=subprocess.PIPE, text=True, env=env, cwd=os.getcwd())
     # Wait until at least one pass is done (progress lines appear every few seconds; give it time).
-    time.sleep(4.0)
+    time.sleep(6.0)
     t0 = time.perf_counter()
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     elapsed = time.perf_counter() - t0
     assert proc.returncode == 130, err
-    assert elapsed < 3.0, elapsed
+    assert elapsed < 5.0, elapsed  # typically well under a second; generous for loaded CI machines
     partial = list(tmp_path.glob("scene_partial_*spp.exr"))
     assert len(partial) == 1, (list(tmp_path.iterdir()), err)
     spp = int(partial[0].stem.split("_")[-1].removesuffix("spp"))

@@ -29,7 +29,8 @@ def uv_sphere(center=(0.0, 0.0, 0.0), radius: float = 1.0, n_theta: int = 24, n_
     b, c, d = a + n_phi + 1, a + n_phi + 2, a + 1
     faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     # Drop the degenerate triangles at the poles.
-    keep = np.linalg.norm(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]), axis=1) > 0
+    area2 = np.linalg.norm(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]), axis=1)
+    keep = area2 > 1e-9 * radius * radius
     return v, faces[keep], n, uv
 
 
