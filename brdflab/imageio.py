@@ -29,6 +29,9 @@ def _atomic_write(path: str | Path, writer: Callable[[str], None]) -> None:
         raise ImageError(f"cannot write image: {exc.strerror}", path) from None
     try:
         writer(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the image the usual permissions
         os.replace(tmp, path)
     except OSError as exc:
         raise ImageError(f"cannot write image: {exc.strerror}", path) from None
