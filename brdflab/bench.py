@@ -65,7 +65,7 @@ def mesh1m_scene(cache: Path) -> Path:
     if not obj.exists():
         from brdflab.scene.shapes import uv_sphere, write_obj
 
-        v, f, _, _ = uv_sphere(n_theta=500, n_phi=1002, bumps=0.05)
+        v, f, _, _ = uv_sphere(n_theta=500, n_phi=1004, bumps=0.05)
         write_obj(obj, v, f, comment="procedural bench mesh written by brdflab.bench")
     xml = cache / "mesh1m.xml"
     xml.write_text(

@@ -55,3 +55,22 @@ def test_missing_mesh_is_named(rel, missing):
     with pytest.raises(BrdflabError, match=missing) as exc:
         load_scene(shared_scene(rel))
     assert exc.value.line is not None
+
+
+@pytest.mark.parametrize("rel", ["assignment-3/serapis/serapis_rough_ems.xml",
+                                 "assignment-3/serapis/serapis_smooth_mats.xml"])
+def test_assignment3_serapis_names_the_missing_mesh(rel):
+    with pytest.raises(BrdflabError, match="mesh file 'serapis.obj' not found") as exc:
+        load_scene(shared_scene(rel))
+    assert exc.value.line is not None
+
+
+@pytest.mark.parametrize("rel", ["assignment-3/cbox/cbox_conductors_ems.xml",
+                                 "assignment-3/cbox/cbox_substrate_ems.xml",
+                                 "assignment-3/bunny_env/bunny_rough_mis.xml",
+                                 "assignment-3/bunny_env/bunny_smooth_mats.xml"])
+def test_assignment3_scenes_render(rel):
+    scene = load_scene(shared_scene(rel))
+    scene.camera.width, scene.camera.height = scene.camera.width // 8, scene.camera.height // 8
+    img, stats = render(scene, spp=4)
+    assert np.isfinite(img).all() and img.mean() > 0 and stats.dropped == 0
