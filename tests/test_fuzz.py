@@ -133,3 +133,13 @@ def test_warps_map_into_domains_with_positive_pdf(us, alpha):
     h = warps.square_to_beckmann(u, alpha)
     np.testing.assert_allclose(np.linalg.norm(h, axis=1), 1.0, atol=1e-12)
     assert (h[:, 2] > 0).all()
+
+
+def test_beckmann_warp_closed_end_is_finite():
+    """ξ1 = 1 (allowed by stratified or low-discrepancy points) must not produce NaN."""
+    u = np.array([[1.0, 0.3], [0.0, 0.0], [np.nextafter(1.0, 0.0), 0.9]])
+    for alpha in (1e-4, 0.1, 1.0):
+        h = warps.square_to_beckmann(u, alpha)
+        assert np.isfinite(h).all()
+        np.testing.assert_allclose(np.linalg.norm(h, axis=1), 1.0, atol=1e-12)
+        assert abs(h[0, 2]) < 1e-12  # horizon
