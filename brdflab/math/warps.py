@@ -95,10 +95,10 @@ def square_to_beckmann(u: np.ndarray, alpha: np.ndarray | float) -> np.ndarray:
     tiny α (no cancellation). The closed end ξ1 = 1 maps to a finite horizon direction instead of NaN.
     """
     alpha = np.asarray(alpha, dtype=np.float64)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
         tan2 = -(alpha * alpha) * np.log1p(-u[:, 0])  # ξ1 = 1 gives tan²θ = ∞: the horizon
-    cos_t = 1.0 / np.sqrt(1.0 + tan2)
-    sin_t = np.where(np.isfinite(tan2), np.sqrt(tan2) * cos_t, 1.0)
+        cos_t = 1.0 / np.sqrt(1.0 + tan2)
+        sin_t = np.where(np.isfinite(tan2), np.sqrt(tan2) * cos_t, 1.0)
     phi = 2.0 * np.pi * u[:, 1]
     return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=1)
 
