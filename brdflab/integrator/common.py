@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.math.frame import dot, frame_from_normal, take_rows, to_local, to_world
+from brdflab.math.frame import frame_from_normal, take_rows, to_local, to_world
 from brdflab.scene.geometry import Hits
 from brdflab.scene.properties import PropertyList
 
@@ -225,11 +225,5 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     return Le, pdf
 
 
-def cos_theta(w_local: np.ndarray) -> np.ndarray:
-    """cos θ of local directions (their z component)."""
-    return w_local[:, 2]
-
-
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "background", "trace_camera", "shading_points", "by_group",
-           "any_positive", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters", "dot",
-           "cos_theta"]
+           "any_positive", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]
