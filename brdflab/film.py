@@ -134,6 +134,11 @@ class Filter:
             c = (np.arange(self.phases) + 0.5) / self.phases
             self.phase_offset = np.ceil(c - radius).astype(np.int64)
             self.phase_weights = self.weights(self.phase_offset[:, None] + np.arange(self.taps) - c[:, None])
+            # Taps that are zero for every phase (the last one, for the filters above) are dropped.
+            used = np.flatnonzero(np.any(self.phase_weights != 0, axis=0))
+            self.phase_taps = int(used[-1]) + 1 if len(used) else 1
+            self.phase_weights = self.phase_weights[:, : self.phase_taps]
+            self.phase_weights_t = np.ascontiguousarray(self.phase_weights.T)  # (phase taps, phases)
 
     @classmethod
     def from_properties(cls, kind: str, props: PropertyList) -> Filter:
@@ -155,6 +160,9 @@ class Filter:
 class Film:
     """Accumulates filtered samples (Σ wL, Σ w) of a region of the image, with a border for the filter.
 
+    The accumulator ``data`` is channel-first, shape (4, rows, columns): Σ wL_r, Σ wL_g, Σ wL_b, Σ w,
+    so that every channel is one contiguous plane.
+
     Parameters
     ----------
     width, height
@@ -174,66 +182,98 @@ class Film:
         self.h = height if h is None else h
         b = self.border
         self.bw, self.bh = self.w + 2 * b, self.h + 2 * b
-        self.data = np.zeros((self.bh, self.bw, 4))
+        self.data = np.zeros((4, self.bh, self.bw))
 
     def splat(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
         """Add samples at continuous image positions (sx, sy) with RGB ``values`` (N, 3)."""
         if len(sx) == 0:
             return
-        # The separable pass costs ∝ pixels·phases, the direct one ∝ samples·taps²: pick the cheaper.
+        # The separable pass costs ∝ samples·taps + pixels·phases·taps, the direct one ∝ samples·taps²:
+        # pick the cheaper.
         f = self.filter
-        if f.phases and f.taps >= 3 and len(sx) * f.taps > self.bh * self.bw * f.phases:
+        if f.phases and f.phase_taps >= 2 and 4 * len(sx) * f.phase_taps >= self.bh * self.bw * f.phases:
             self._splat_separable(sx, sy, values)
         else:
             self._splat_direct(sx, sy, values)
 
+    def _taps(self, s: np.ndarray, origin: int, extent: int) -> tuple[np.ndarray, np.ndarray]:
+        """First tap (buffer coordinate, clipped) and phase of continuous positions ``s`` on one axis."""
+        f = self.filter
+        q = s - 0.5
+        fq = np.floor(q)
+        ph = ((q - fq) * f.phases).astype(np.intp)
+        np.minimum(ph, f.phases - 1, out=ph)
+        first = fq.astype(np.intp)
+        first += np.take(f.phase_offset, ph)
+        first += self.border - origin
+        np.clip(first, 0, extent - f.phase_taps, out=first)
+        return first, ph
+
     def _splat_separable(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
         f = self.filter
-        nph, taps, b = f.phases, f.taps, self.border
-        qx, qy = sx - 0.5, sy - 0.5
-        fx, fy = np.floor(qx), np.floor(qy)
-        phx = np.minimum(((qx - fx) * nph).astype(np.int64), nph - 1)
-        phy = np.minimum(((qy - fy) * nph).astype(np.int64), nph - 1)
-        x0 = fx.astype(np.int64) + f.phase_offset[phx] - self.x0 + b
-        y0 = fy.astype(np.int64) + f.phase_offset[phy] - self.y0 + b
-        np.clip(x0, 0, self.bw - taps, out=x0)
-        np.clip(y0, 0, self.bh - taps, out=y0)
-        # x pass: scatter w_x·(1, L) into buf[(row, y phase, column)], 4 channels.
-        row = (y0 * nph + phy) * self.bw + x0
-        idx = (row[None, :] + np.arange(taps)[:, None]).reshape(-1)  # (taps·N), tap-major
-        wx = f.phase_weights[phx].T  # (taps, N)
+        nph, taps, n = f.phases, f.phase_taps, len(sx)
+        x0, phx = self._taps(sx, self.x0, self.bw)
+        y0, phy = self._taps(sy, self.y0, self.bh)
+        # x pass: scatter w_x·(L, 1) into buf[channel, row, y phase, column] (one bincount per channel
+        # over all taps; tap-major index and weight vectors are filled slice by slice, no 2-D gathers).
+        row = y0 * nph
+        row += phy
+        row *= self.bw
+        row += x0
+        idx = np.empty(taps * n, np.intp)
+        wx = np.empty(taps * n)
+        for k in range(taps):
+            np.add(row, k, out=idx[k * n:(k + 1) * n])
+            np.take(f.phase_weights_t[k], phx, out=wx[k * n:(k + 1) * n], mode="wrap")
         size = self.bh * nph * self.bw
         buf = np.empty((4, size))
-        buf[3] = np.bincount(idx, wx.reshape(-1), minlength=size)
+        buf[3] = np.bincount(idx, wx, minlength=size)
+        wv = np.empty(taps * n)
         for c in range(3):
-            buf[c] = np.bincount(idx, (wx * values[:, c]).reshape(-1), minlength=size)
-        # y pass: out[row + k] += Σ_phase W[phase, k] · buf[row, phase].
-        buf = buf.reshape(4, self.bh, nph, self.bw)
-        contrib = np.einsum("crpx,pk->kcrx", buf, f.phase_weights)  # (taps, 4, rows, cols)
-        acc = self.data
+            np.multiply(wx.reshape(taps, n), values[:, c], out=wv.reshape(taps, n))
+            buf[c] = np.bincount(idx, wv, minlength=size)
+        # y pass: data[c, row + k, x] += Σ_phase W[phase, k] · buf[c, row, phase, x].
+        contrib = np.matmul(f.phase_weights_t, buf.reshape(4, self.bh, nph, self.bw))  # (4, rows, taps, cols)
         for k in range(taps):
-            acc[k:, :, :] += np.moveaxis(contrib[k, :, : self.bh - k, :], 0, -1)
+            self.data[:, k:, :] += contrib[:, : self.bh - k, k, :]
 
     def _splat_direct(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
         f = self.filter
-        qx, qy = sx - 0.5, sy - 0.5
-        x_lo = np.ceil(qx - f.radius).astype(np.int64)
-        y_lo = np.ceil(qy - f.radius).astype(np.int64)
-        k = np.arange(f.taps)
-        xs = x_lo[:, None] + k  # (N, taps)
-        ys = y_lo[:, None] + k
-        wx = f.weights(xs - qx[:, None])
-        wy = f.weights(ys - qy[:, None])
-        b = self.border
-        lx = np.clip(xs - self.x0 + b, 0, self.bw - 1)
-        ly = np.clip(ys - self.y0 + b, 0, self.bh - 1)
-        idx = (ly[:, :, None] * self.bw + lx[:, None, :]).reshape(-1)  # (N·taps·taps)
-        w = (wy[:, :, None] * wx[:, None, :]).reshape(len(sx), -1)  # (N, taps²)
+        n = len(sx)
+        if f.phases:
+            taps = f.phase_taps
+            x0, phx = self._taps(sx, self.x0, self.bw)
+            y0, phy = self._taps(sy, self.y0, self.bh)
+            wx = [np.take(f.phase_weights_t[k], phx) for k in range(taps)]
+            wy = [np.take(f.phase_weights_t[k], phy) for k in range(taps)]
+            xs = [x0 + k for k in range(taps)]
+            ys = [y0 + k for k in range(taps)]
+        else:
+            taps = f.taps
+            qx, qy = sx - 0.5, sy - 0.5
+            x_lo = np.ceil(qx - f.radius).astype(np.intp)
+            y_lo = np.ceil(qy - f.radius).astype(np.intp)
+            wx = [f.weights(x_lo + k - qx) for k in range(taps)]
+            wy = [f.weights(y_lo + k - qy) for k in range(taps)]
+            b = self.border
+            xs = [np.clip(x_lo + k - self.x0 + b, 0, self.bw - 1) for k in range(taps)]
+            ys = [np.clip(y_lo + k - self.y0 + b, 0, self.bh - 1) for k in range(taps)]
+        m = taps * taps
+        idx = np.empty(m * n, np.intp)
+        w = np.empty(m * n)
+        for j in range(taps):
+            rj = ys[j] * self.bw
+            for i in range(taps):
+                s = slice((j * taps + i) * n, (j * taps + i + 1) * n)
+                np.add(rj, xs[i], out=idx[s])
+                np.multiply(wy[j], wx[i], out=w[s])
         size = self.bh * self.bw
-        acc = self.data.reshape(size, 4)
-        acc[:, 3] += np.bincount(idx, w.reshape(-1), minlength=size)
+        acc = self.data.reshape(4, size)
+        acc[3] += np.bincount(idx, w, minlength=size)
+        wv = np.empty(m * n)
         for c in range(3):
-            acc[:, c] += np.bincount(idx, (w * values[:, c:c + 1]).reshape(-1), minlength=size)
+            np.multiply(w.reshape(m, n), values[:, c], out=wv.reshape(m, n))
+            acc[c] += np.bincount(idx, wv, minlength=size)
 
     def add(self, other: Film) -> None:
         """Add another film's accumulation (a tile, including its border) into this one."""
@@ -244,13 +284,13 @@ class Film:
         y0, x0 = max(0, ys), max(0, xs)
         hh = min(self.bh - y0, other.bh - y_from)
         ww = min(self.bw - x0, other.bw - x_from)
-        self.data[y0:y0 + hh, x0:x0 + ww] += other.data[y_from:y_from + hh, x_from:x_from + ww]
+        self.data[:, y0:y0 + hh, x0:x0 + ww] += other.data[:, y_from:y_from + hh, x_from:x_from + ww]
 
     def image(self) -> np.ndarray:
         """The normalised image Σ wL / Σ w (0 where Σ w = 0), shape (h, w, 3), float32."""
         b = self.border
-        d = self.data[b:b + self.h, b:b + self.w]
-        wsum = d[..., 3:4]
+        d = self.data[:, b:b + self.h, b:b + self.w]
+        wsum = d[3]
         with np.errstate(divide="ignore", invalid="ignore"):
-            img = np.where(wsum > 0, d[..., :3] / np.where(wsum > 0, wsum, 1.0), 0.0)
-        return img.astype(np.float32)
+            img = np.where(wsum > 0, d[:3] / np.where(wsum > 0, wsum, 1.0), 0.0)
+        return np.ascontiguousarray(np.moveaxis(img, 0, -1), dtype=np.float32)

@@ -29,16 +29,19 @@ from brdflab.film import Film
 UNIT_SAMPLES = 1 << 16
 
 
-def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = ()) -> list[int]:
-    """Sizes of the sample passes: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass``; sums to ``spp``.
+def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
+                  progressive: bool = True) -> list[int]:
+    """Sizes of the sample passes; they sum to ``spp``.
 
-    Every value in ``checkpoints`` (≤ spp) is also made a pass boundary.
+    Progressive: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass`` (every power of two is a boundary).
+    Otherwise ``max_pass`` each (fewer, larger units: the splat is cheapest per sample there). Every value
+    in ``checkpoints`` (≤ spp) is also made a pass boundary.
     """
     stops = sorted({c for c in checkpoints if 0 < c < spp})
     sizes: list[int] = []
     done = 0
     while done < spp:
-        size = 1 if done == 0 else min(done, max_pass)
+        size = (1 if done == 0 else min(done, max_pass)) if progressive else max_pass
         size = min(size, spp - done)
         nxt = next((c for c in stops if c > done), None)
         if nxt is not None:
@@ -126,6 +129,7 @@ def render(
     stop: threading.Event | None = None,
     time_limit: float | None = None,
     checkpoints: tuple[int, ...] = (),
+    progressive: bool | None = None,
 ) -> tuple[np.ndarray, RenderStats]:
     """Render ``scene``.
 
@@ -148,6 +152,11 @@ def render(
         Stop at the last pass boundary that fits in this many seconds.
     checkpoints
         Sample counts that must be pass boundaries (so ``on_pass`` sees them).
+    progressive
+        Passes of 1, 1, 2, 4, … samples (a checkpoint at every power of two). Default: only when
+        ``on_pass``, ``checkpoints`` or ``time_limit`` ask for intermediate images; otherwise passes of
+        16 samples per pixel. The pass sizes are part of the random-number layout: an image is
+        reproducible for the same scene, seed, sample count and schedule.
 
     Returns
     -------
@@ -161,7 +170,9 @@ def render(
     cam = scene.camera
     film = Film(cam.width, cam.height, scene.filter)
     units = []
-    sizes = pass_schedule(spp, checkpoints=checkpoints)
+    if progressive is None:
+        progressive = on_pass is not None or bool(checkpoints) or time_limit is not None
+    sizes = pass_schedule(spp, checkpoints=checkpoints, progressive=progressive)
     for p, size in enumerate(sizes):
         for t, tile in enumerate(tiles_for(cam.width, cam.height, size)):
             units.append((p, t, tile, size))

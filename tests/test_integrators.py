@@ -134,8 +134,11 @@ def test_assignment3_cbox_mats_agrees_with_ems(stem):
 def test_assignment3_veach_integrators_agree():
     path = shared_scene("assignment-3/veach_mi/veach_mis.xml")
     means = {}
+    # The tiny, very bright lights make emitter and BSDF sampling heavy-tailed on the plates: at 256 spp
+    # their image means scatter by ±1.5 % around MIS over seeds (measured), so 3 % is the bound; a missing
+    # MIS weight or pdf term is off by tens of percent.
     for name in INTEGRATORS:
-        img, _ = render(_small(load_scene(path, name), 96), spp=64, seed=5)
+        img, _ = render(_small(load_scene(path, name), 96), spp=256, seed=5)
         means[name] = img.mean()
     for name in INTEGRATORS:
-        assert abs(means[name] / means["direct_mis"] - 1) < 0.01, means
+        assert abs(means[name] / means["direct_mis"] - 1) < 0.03, means

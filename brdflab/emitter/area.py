@@ -21,7 +21,6 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.emitter.base import Emitter, EmitterSample
-from brdflab.math import warps
 from brdflab.math.frame import dot
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
@@ -61,13 +60,50 @@ class AreaEmitter(Emitter):
         self.radiance = texture
 
     def attach(self, geometry, mesh_index: int) -> None:
-        """Bind to mesh ``mesh_index`` of ``geometry`` and build the triangle distribution."""
+        """Bind to mesh ``mesh_index`` of ``geometry`` and build the triangle distribution.
+
+        The emitter keeps compact copies of its own triangles (p0, p1 − p0, p2 − p0, the normal data and,
+        for textured radiance, the uvs), so sampling gathers from a few small tables instead of
+        reconstructing full hit records.
+        """
         self.geometry = geometry
         self.mesh_index = mesh_index
         self.tris = np.flatnonzero(geometry.tri_mesh == mesh_index)
         areas = geometry.tri_area[self.tris]
         self.area = float(areas.sum())
         self.cdf = np.cumsum(areas) / self.area if self.area > 0 else None
+        tris = self.tris
+        self._pos = np.ascontiguousarray(geometry.tri_pos[:, tris])
+        self._face_n = np.ascontiguousarray(geometry.face_normals_t[:, tris])
+        nrm = geometry.tri_nrm[:, tris] if geometry.tri_nrm is not None else None
+        # Interpolated shading normals only where they differ from the face normal (flat lights skip it).
+        flat = nrm is None or (np.allclose(nrm[0:3], self._face_n, rtol=0, atol=1e-12)
+                               and np.allclose(nrm[3:9], 0.0, rtol=0, atol=1e-12))
+        self._nrm = None if flat else np.ascontiguousarray(nrm)
+        self._uv = (np.ascontiguousarray(geometry.tri_uv[:, tris]) if geometry.tri_uv is not None
+                    else np.array([[0.0], [0.0], [1.0], [0.0], [0.0], [1.0]]).repeat(len(tris), axis=1))
+
+    def _choose_triangles(self, u: np.ndarray) -> np.ndarray:
+        """Triangle index (into the emitter's own list) with probability A_k / A, by CDF inversion."""
+        n_tri = len(self.tris)
+        if n_tri <= 8:
+            # Count of CDF entries ≤ u (= searchsorted side="right"), one comparison per triangle.
+            k = np.zeros(len(u), np.intp)
+            for c in self.cdf[:-1]:
+                k += u >= c
+            return k
+        return np.minimum(np.searchsorted(self.cdf, u, side="right"), n_tri - 1)
+
+    @staticmethod
+    def _interp(table: np.ndarray, k: np.ndarray, bu: np.ndarray, bv: np.ndarray, comps: int) -> list[np.ndarray]:
+        """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) from a packed (3·comps, K) triangle table."""
+        out = []
+        for j in range(comps):
+            c = np.take(table[j], k, mode="wrap")
+            c += bu * np.take(table[comps + j], k, mode="wrap")
+            c += bv * np.take(table[2 * comps + j], k, mode="wrap")
+            out.append(c)
+        return out
 
     def le(self, uv: np.ndarray) -> np.ndarray:
         """Radiance (N, 3) emitted toward the front side at surface coordinates ``uv``."""
@@ -75,25 +111,52 @@ class AreaEmitter(Emitter):
 
     def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
         """Sample a point uniformly by area and return the solid-angle sample seen from ``ref_p``."""
-        g = self.geometry
-        k = np.minimum(np.searchsorted(self.cdf, u[:, 2], side="right"), len(self.tris) - 1)
-        prim = self.tris[k]
-        b = warps.square_to_uniform_triangle(u[:, :2])
-        # Spec §9.1: barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2) for (p0, p1, p2); Hits use (1 − u − v, u, v).
-        bu, bv = b[:, 1], 1.0 - b[:, 0] - b[:, 1]
-        h = g.hit_records(np.ones(len(prim), bool), prim, bu, bv, np.zeros(len(prim)))
-        delta = h.p - ref_p
-        dist2 = dot(delta, delta)
+        n = len(u)
+        k = self._choose_triangles(u[:, 2])
+        # Folding warp (spec §9.1): barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2) of (p0, p1, p2) after folding
+        # the square onto the triangle, i.e. p = p0 + bu(p1 − p0) + bv(p2 − p0) with bu = ξ2, bv = 1 − ξ1 − ξ2.
+        u0, u1 = u[:, 0], u[:, 1]
+        fold = u0 + u1 > 1.0
+        b0 = np.where(fold, 1.0 - u0, u0)
+        bu = np.where(fold, 1.0 - u1, u1)
+        bv = 1.0 - b0
+        bv -= bu
+        px, py, pz = self._interp(self._pos, k, bu, bv, 3)
+        dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
+        dist2 = dx * dx
+        dist2 += dy * dy
+        dist2 += dz * dz
         dist = np.sqrt(dist2)
-        wi = delta / np.where(dist > 0, dist, 1.0)[:, None]
-        cos_l = -dot(h.ns, wi)
-        front = cos_l > 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pdf = np.where(front, dist2 / (self.area * np.abs(cos_l)), 0.0)
-        ok = front & np.isfinite(pdf) & (pdf > 0)
-        radiance = np.zeros((len(prim), 3), order="F")
-        radiance[ok] = self.le(h.uv[ok]) if not self.radiance.constant else self.radiance.value * self.scale
-        return EmitterSample(wi, dist, radiance, np.where(ok, pdf, 0.0))
+        inv = 1.0 / np.where(dist > 0, dist, 1.0)
+        wi = np.empty((n, 3), order="F")
+        np.multiply(dx, inv, out=wi[:, 0])
+        np.multiply(dy, inv, out=wi[:, 1])
+        np.multiply(dz, inv, out=wi[:, 2])
+        if self._nrm is None:
+            nx, ny, nz = (np.take(self._face_n[j], k, mode="wrap") for j in range(3))
+        else:
+            nx, ny, nz = self._interp(self._nrm, k, bu, bv, 3)
+            ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+            ln[~(ln > 0)] = 1.0
+            nx, ny, nz = nx / ln, ny / ln, nz / ln
+        cos_l = -(nx * wi[:, 0] + ny * wi[:, 1] + nz * wi[:, 2])
+        # p_ω = ‖y − x‖² / (A |n_l·ω|) for front-facing light points, else 0.
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            pdf = dist2 / (self.area * cos_l)
+        ok = (cos_l > 0) & (pdf > 0) & (pdf < np.inf)
+        pdf = np.where(ok, pdf, 0.0)
+        radiance = np.empty((n, 3), order="F")
+        if self.radiance.constant:
+            value = self.radiance.value * self.scale
+            for j in range(3):
+                np.multiply(ok, value[j], out=radiance[:, j])
+        else:
+            uv = np.empty((n, 2), order="F")
+            uv[:, 0], uv[:, 1] = self._interp(self._uv, k, bu, bv, 2)
+            radiance[:] = 0.0
+            sel = np.flatnonzero(ok)
+            radiance[sel] = self.le(uv[sel])
+        return EmitterSample(wi, dist, radiance, pdf)
 
     def eval_hit(self, ns: np.ndarray, uv: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Radiance arriving along rays of direction ``d`` that hit this emitter (shading normal ``ns``)."""
