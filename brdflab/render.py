@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.alloc import tune_allocator
 from brdflab.film import Film
 
 #: Target number of camera samples per work unit (fits comfortably in cache-friendly batches).
@@ -164,6 +165,7 @@ def render(
         The (H, W, 3) float32 image and the :class:`RenderStats`; ``stats.spp`` is the number of samples
         per pixel actually taken (smaller than requested when stopped early).
     """
+    tune_allocator()
     spp = scene.spp if spp is None else spp
     seed = scene.seed if seed is None else seed
     workers = workers or os.cpu_count() or 1

@@ -58,13 +58,13 @@ class ShadingPoints:
         """World directions → local shading frame (of the points ``sel``, default all)."""
         if sel is None:
             return to_local(w, self.s, self.t, self.ns)
-        return to_local(w, self.s[sel], self.t[sel], self.ns[sel])
+        return to_local(w, take_rows(self.s, sel), take_rows(self.t, sel), take_rows(self.ns, sel))
 
     def world(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
         """Local directions → world (for the points ``sel``, default all)."""
         if sel is None:
             return to_world(w, self.s, self.t, self.ns)
-        return to_world(w, self.s[sel], self.t[sel], self.ns[sel])
+        return to_world(w, take_rows(self.s, sel), take_rows(self.t, sel), take_rows(self.ns, sel))
 
 
 def background(scene, d: np.ndarray) -> np.ndarray:
@@ -124,6 +124,11 @@ def by_group(ids: np.ndarray):
             yield g, chunk
 
 
+def rows(a: np.ndarray, sel) -> np.ndarray:
+    """``a[sel]`` for a :func:`by_group` selector: the array itself for ``slice(None)``, else a gather."""
+    return a if isinstance(sel, slice) else take_rows(a, sel) if a.ndim == 2 else np.take(a, sel)
+
+
 def any_positive(rgb: np.ndarray) -> np.ndarray:
     """True where any of the three channels is > 0 (column-wise: faster than a reduction over axis 1)."""
     return (rgb[:, 0] > 0) | (rgb[:, 1] > 0) | (rgb[:, 2] > 0)
@@ -135,9 +140,10 @@ def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False)
     pdf = np.zeros(len(wo)) if with_pdf else None
     for b, sel in by_group(sp.bsdf):
         bsdf = scene.bsdfs[b]
-        f[sel] = bsdf.eval(sp.wi[sel], wo[sel], sp.uv[sel])
+        wi_b, wo_b, uv_b = rows(sp.wi, sel), rows(wo, sel), rows(sp.uv, sel)
+        f[sel] = bsdf.eval(wi_b, wo_b, uv_b)
         if with_pdf:
-            pdf[sel] = bsdf.pdf(sp.wi[sel], wo[sel], sp.uv[sel])
+            pdf[sel] = bsdf.pdf(wi_b, wo_b, uv_b)
     return (f, pdf) if with_pdf else f
 
 
@@ -148,7 +154,7 @@ def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, n
     weight = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     for b, sel in by_group(sp.bsdf):
-        r = scene.bsdfs[b].sample(sp.wi[sel], u[sel], sp.uv[sel])
+        r = scene.bsdfs[b].sample(rows(sp.wi, sel), rows(u, sel), rows(sp.uv, sel))
         wo[sel], weight[sel], pdf[sel] = r.wo, r.weight, r.pdf
     return wo, weight, pdf
 
@@ -187,7 +193,7 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
     for e, sel in by_group(choice):
         em = scene.emitters[e]
-        r = em.sample(sp.p[sel], u[sel, 1:4] if isinstance(sel, slice) else take_rows(u, sel)[:, 1:4])
+        r = em.sample(rows(sp.p, sel), rows(u, sel)[:, 1:4])
         wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
         pdf[sel] = r.pdf * scene.emitter_pmf[e]
         delta[sel] = em.is_delta
@@ -206,15 +212,16 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     solid-angle density with which *light sampling* would have produced that direction (selection
     probability included), for MIS."""
     g = scene.geometry
-    hits = g.intersect(o, d)
+    hits = g.intersect(o, d, positions=False)
     m = len(o)
     Le = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
     for e, sel in by_group(em):
         emitter = scene.emitters[e]
-        Le[sel] = emitter.eval_hit(hits.ns[sel], hits.uv[sel], d[sel])
-        pdf[sel] = emitter.pdf_hit(hits.t[sel], hits.ns[sel], d[sel]) * scene.emitter_pmf[e]
+        ns, d_e = rows(hits.ns, sel), rows(d, sel)
+        Le[sel] = emitter.eval_hit(ns, rows(hits.uv, sel), d_e)
+        pdf[sel] = emitter.pdf_hit(rows(hits.t, sel), ns, d_e) * scene.emitter_pmf[e]
     env = scene.environment
     if env is not None:
         miss = np.flatnonzero(~hits.valid)
@@ -226,4 +233,4 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "background", "trace_camera", "shading_points", "by_group",
-           "any_positive", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]
+           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.integrator.common import Integrator, any_positive, emission_along, sample_bsdfs, trace_camera
+from brdflab.math.frame import take_rows
 
 
 def bsdf_rays(scene, sp, u: np.ndarray):
@@ -30,11 +31,11 @@ def bsdf_rays(scene, sp, u: np.ndarray):
     """
     wo, weight, pdf = sample_bsdfs(scene, sp, u)
     live = np.flatnonzero(any_positive(weight))
-    d = sp.world(wo[live], live)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    o = scene.geometry.offset_origin(sp.p[live], sp.ng[live], d)
+    d = sp.world(take_rows(wo, live), live)
+    d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
+    o = scene.geometry.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), d)
     Le, pdf_light = emission_along(scene, o, d)
-    return live, weight[live], pdf[live], Le, pdf_light
+    return live, take_rows(weight, live), np.take(pdf, live), Le, pdf_light
 
 
 class DirectMATS(Integrator):

@@ -5,9 +5,11 @@ NumPy then runs broadcasts, masked selections and row sums on them several times
 (N, 3) arrays, while the (N, 3) interface stays the same. :func:`take_rows` and :func:`stack_cols` build
 such arrays; element-wise operations between them preserve the layout.
 
-The frame of a unit normal n is (s, t, n) with, following Nori's deterministic construction,
-c = (n_z, 0, −n_x)/√(n_x²+n_z²) if |n_x| > |n_y| else (0, n_z, −n_y)/√(n_y²+n_z²), b = c × n, and
-(s, t, n) = (b, c, n). Only the normal matters for the isotropic BSDFs in brdflab.
+The frame of a unit normal n is (s, t, n) with the branch-free construction of Duff et al., "Building an
+Orthonormal Basis, Revisited" (JCGT 6(1), 2017, listing 3): σ = sign(n_z), a = −1/(σ + n_z),
+b = n_x n_y a, s = (1 + σ n_x² a, σ b, −σ n_x), t = (b, σ + n_y² a, −n_y). Nori builds its tangents
+differently (spec §7.2), but only the normal matters for the isotropic BSDFs in brdflab, and this form
+needs no square roots or branches.
 """
 
 from __future__ import annotations
@@ -55,15 +57,21 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def frame_from_normal(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return tangents (s, t) completing unit normals ``n`` (N, 3) to right-handed frames (s, t, n)."""
     nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
-    use_x = np.abs(nx) > np.abs(ny)
-    c = np.empty(n.shape, order="F")
-    inv_x = 1.0 / np.sqrt(np.maximum(nx * nx + nz * nz, 1e-300))
-    inv_y = 1.0 / np.sqrt(np.maximum(ny * ny + nz * nz, 1e-300))
-    c[:, 0] = np.where(use_x, nz * inv_x, 0.0)
-    c[:, 1] = np.where(use_x, 0.0, nz * inv_y)
-    c[:, 2] = np.where(use_x, -nx * inv_x, -ny * inv_y)
-    b = cross(c, n)
-    return b, c
+    sign = np.copysign(1.0, nz)
+    a = -1.0 / (sign + nz)
+    b = nx * ny * a
+    s = np.empty(n.shape, order="F")
+    t = np.empty(n.shape, order="F")
+    sa = sign * a
+    np.multiply(sa, nx * nx, out=s[:, 0])
+    s[:, 0] += 1.0
+    np.multiply(sign, b, out=s[:, 1])
+    np.multiply(-sign, nx, out=s[:, 2])
+    t[:, 0] = b
+    np.multiply(a, ny * ny, out=t[:, 1])
+    t[:, 1] += sign
+    np.negative(ny, out=t[:, 2])
+    return s, t
 
 
 def to_local(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:

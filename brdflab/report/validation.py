@@ -28,8 +28,7 @@ def _histogram_png(obs: np.ndarray, exp: np.ndarray, scale: int = 4) -> bytes:
     img = np.concatenate([obs, gap, exp], axis=1) / vmax
     img = np.kron(img, np.ones((scale, scale)))
     buf = io.BytesIO()
-    cmap = matplotlib.colormaps["viridis"].copy()
-    cmap.set_bad("white")
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="white")
     matplotlib.image.imsave(buf, np.ma.masked_invalid(img), cmap=cmap, vmin=0, vmax=1, format="png")
     return buf.getvalue()
 

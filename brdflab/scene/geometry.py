@@ -134,25 +134,31 @@ class Geometry:
         return len(self.faces)
 
     # -- queries --------------------------------------------------------------------------------
-    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None) -> Hits:
-        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length)."""
+    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None,
+                  positions: bool = True) -> Hits:
+        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length).
+
+        With ``positions=False`` the hit positions (and, where shading normals come from vertex
+        normals, the geometric normals) are not reconstructed: ``p`` (and ``ng``) are ``None``. Rays that
+        only look for emitters need ``t``, ``ns``, ``uv`` and ``mesh``.
+        """
         n = len(o)
         if n == 0 or not len(self.faces):
             z3 = np.zeros((n, 3))
             return Hits(np.zeros(n, bool), np.full(n, np.inf), z3, z3, z3, np.zeros((n, 2)),
                         np.full(n, -1), np.full(n, -1))
         dists = None if tmax is None else np.broadcast_to(np.asarray(tmax, np.float32), (n,)).copy()
-        t0 = time.perf_counter()
-        r = self._scene.run(np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32),
-                            dists=dists, output=1)
+        o32, d32 = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
+        t0 = time.perf_counter()  # only the embreex call counts as time in Embree
+        r = self._scene.run(o32, d32, dists=dists, output=1)
         self.stats.add(n, time.perf_counter() - t0)
         prim = r["primID"].astype(np.int64)
         valid = prim >= 0
         return self.hit_records(valid, prim, r["u"].astype(np.float64), r["v"].astype(np.float64),
-                                r["tfar"].astype(np.float64))
+                                r["tfar"].astype(np.float64), positions)
 
     def hit_records(self, valid: np.ndarray, prim: np.ndarray, bu: np.ndarray, bv: np.ndarray,
-                    t: np.ndarray) -> Hits:
+                    t: np.ndarray, positions: bool = True) -> Hits:
         """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2).
 
         With barycentrics (1 − u − v, u, v): p = p0 + u(p1 − p0) + v(p2 − p0), likewise for normals
@@ -170,10 +176,12 @@ class Geometry:
                 out[:, j] += bv * np.take(packed[2 * k + j], pr)
             return out
 
-        p = interp(self.tri_pos, 3)
-        ng = np.empty((n, 3), order="F")
-        for j in range(3):
-            ng[:, j] = np.take(self.face_normals_t[j], pr)
+        p = interp(self.tri_pos, 3) if positions else None
+        ng = None
+        if positions or self.tri_nrm is None:
+            ng = np.empty((n, 3), order="F")
+            for j in range(3):
+                ng[:, j] = np.take(self.face_normals_t[j], pr)
         if self.tri_nrm is not None:
             ns = interp(self.tri_nrm, 3)
             ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
@@ -181,7 +189,8 @@ class Geometry:
             ln[bad] = 1.0
             ns /= ln[:, None]
             if bad.any():
-                ns[bad] = ng[bad]
+                fn = self.face_normals_t[:, pr[bad]].T
+                ns[bad] = fn
         else:
             ns = ng
         uv = interp(self.tri_uv, 2) if self.tri_uv is not None else stack_cols(bu, bv)
@@ -193,10 +202,10 @@ class Geometry:
         n = len(o)
         if n == 0 or not len(self.faces):
             return np.zeros(n, bool)
-        t0 = time.perf_counter()
         dist = np.minimum(np.asarray(tmax, np.float64), T_INF).astype(np.float32)
-        r = self._scene.run(np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32),
-                            dists=np.ascontiguousarray(dist), query="OCCLUDED")
+        o32, d32 = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
+        t0 = time.perf_counter()  # only the embreex call counts as time in Embree
+        r = self._scene.run(o32, d32, dists=np.ascontiguousarray(dist), query="OCCLUDED")
         self.stats.add(n, time.perf_counter() - t0)
         return r != -1
 
