@@ -1,0 +1,165 @@
+"""brdflab against Mitsuba 3 on the bench scenes, rendered alternately in one run.
+
+Usage (with brdflab's own environment active)::
+
+    python benchmarks/side_by_side.py [--spp 64] [--rounds 3] [--variants scalar_rgb,llvm_ad_rgb] [cases ...]
+
+* Mitsuba is installed from PyPI into its own venv, ``benchmarks/.venv-mitsuba`` (created on first use).
+* ``llvm_ad_rgb`` needs an LLVM shared library (Debian: ``apt-get install libllvm19``); the script looks
+  for ``libLLVM*.so*`` and passes it as ``DRJIT_LIBLLVM_PATH``. Without one, that variant is skipped.
+* Each (case, integrator) is rendered by brdflab (``python -m brdflab.bench --one``, a fresh process) and
+  by Mitsuba (``benchmarks/mitsuba/run_mitsuba.py``, a fresh process per variant) in every round; the
+  order alternates between rounds so that drift in machine load affects both. Only the render is timed
+  (no scene loading, BVH build or JIT compilation). Both use every core.
+* Prints a table of median samples/s and the ratio brdflab / Mitsuba per variant — the headline figure —
+  and writes ``benchmarks/results/side_by_side.json`` plus a Markdown table for the README.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import platform
+import re
+import statistics
+import subprocess
+import sys
+import time
+import venv
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(HERE / "mitsuba"))
+
+from translate import translate  # noqa: E402
+
+from brdflab.bench import CASES, mesh1m_scene  # noqa: E402
+
+VENV = HERE / ".venv-mitsuba"
+MITSUBA_PY = VENV / "bin" / "python"
+
+
+def ensure_mitsuba(say=print) -> Path:
+    """Create the Mitsuba venv and install ``mitsuba`` and ``numpy`` into it (once)."""
+    if MITSUBA_PY.exists():
+        probe = subprocess.run([str(MITSUBA_PY), "-c", "import mitsuba, numpy"], capture_output=True)
+        if probe.returncode == 0:
+            return MITSUBA_PY
+    say(f"creating {VENV} and installing mitsuba from PyPI …")
+    venv.create(VENV, with_pip=True, clear=True)
+    subprocess.run([str(MITSUBA_PY), "-m", "pip", "install", "-q", "mitsuba", "numpy"], check=True)
+    return MITSUBA_PY
+
+
+def find_llvm() -> str | None:
+    """Path of the newest LLVM shared library on the machine (for Dr.Jit's LLVM backend), or None."""
+    if os.environ.get("DRJIT_LIBLLVM_PATH"):
+        return os.environ["DRJIT_LIBLLVM_PATH"]
+    found = glob.glob("/usr/lib/*/libLLVM*.so*") + glob.glob("/usr/lib/llvm-*/lib/libLLVM*.so*")
+
+    def version(p: str) -> int:
+        m = re.search(r"LLVM(?:\.so\.|-)(\d+)", p)
+        return int(m.group(1)) if m else 0
+
+    found = [p for p in found if version(p) >= 11]
+    return max(found, key=version) if found else None
+
+
+def scene_paths(case: str, integrator: str) -> tuple[Path, Path]:
+    """(brdflab scene, Mitsuba translation) of a bench case, writing the translation if needed."""
+    rel, _ = CASES[case]
+    if rel == "<generated>":
+        scene = mesh1m_scene(ROOT / ".bench-cache")
+        out = ROOT / ".bench-cache" / "mitsuba" / f"{case}_{integrator}.xml"
+    else:
+        scene = ROOT / rel
+        out = HERE / "mitsuba" / f"{case}_{integrator}.xml"
+    translate(scene, integrator, out)
+    return scene, out
+
+
+def run_brdflab(scene: Path, integrator: str, spp: int, case: str) -> dict:
+    """One brdflab render in a fresh process; the bench record's single run."""
+    cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integrator, str(spp), "1", "0", case]
+    out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True)
+    rec = json.loads(out.stdout.strip().splitlines()[-1])
+    return rec["runs"][0] | {"load_seconds": rec["load_seconds"], "triangles": rec["triangles"]}
+
+
+def run_mitsuba(xml: Path, spp: int, variant: str, llvm: str | None) -> dict:
+    """One Mitsuba render in a fresh process."""
+    env = dict(os.environ)
+    if llvm:
+        env["DRJIT_LIBLLVM_PATH"] = llvm
+    cmd = [str(MITSUBA_PY), str(HERE / "mitsuba" / "run_mitsuba.py"), str(xml), "--spp", str(spp),
+           "--variant", variant]
+    out = subprocess.run(cmd, capture_output=True, text=True, cwd=xml.parent, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the side-by-side benchmark."""
+    ap = argparse.ArgumentParser(description="brdflab vs Mitsuba 3, alternately in one run")
+    ap.add_argument("cases", nargs="*", default=list(CASES))
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
+    ap.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis")
+    ap.add_argument("--json", type=Path, default=HERE / "results" / "side_by_side.json")
+    a = ap.parse_args(argv)
+    ensure_mitsuba()
+    variants = [v for v in a.variants.split(",") if v]
+    llvm = find_llvm()
+    if any(v.startswith("llvm") for v in variants) and llvm is None:
+        print("no LLVM shared library found (Debian: apt-get install libllvm19): skipping llvm_* variants")
+        variants = [v for v in variants if not v.startswith("llvm")]
+    jobs = []
+    for case in a.cases:
+        for integ in CASES[case][1]:
+            if integ in a.integrators.split(","):
+                jobs.append((case, integ, *scene_paths(case, integ)))
+    runs: dict[tuple[str, str], dict[str, list[dict]]] = {(c, i): {"brdflab": []} | {v: [] for v in variants}
+                                                          for c, i, _, _ in jobs}
+    for r in range(a.rounds):
+        for case, integ, scene, xml in jobs:
+            order = ["brdflab", *variants] if r % 2 == 0 else [*variants, "brdflab"]
+            for who in order:
+                rec = (run_brdflab(scene, integ, a.spp, case) if who == "brdflab"
+                       else run_mitsuba(xml, a.spp, who, llvm))
+                runs[(case, integ)][who].append(rec)
+                print(f"round {r + 1}/{a.rounds}  {case:13s} {integ:12s} {who:12s} "
+                      f"{rec['samples_per_s'] / 1e6:6.2f} M samples/s", flush=True)
+    rows = []
+    for (case, integ), by in runs.items():
+        row = {"case": case, "integrator": integ, "runs": by}
+        med = {w: statistics.median(x["samples_per_s"] for x in recs) for w, recs in by.items()}
+        row["median_samples_per_s"] = med
+        row["ratio"] = {v: med["brdflab"] / med[v] for v in variants}
+        row["brdflab_embree_share"] = statistics.median(x["embree_share"] for x in by["brdflab"])
+        rows.append(row)
+    head = "| case | integrator | brdflab | " + " | ".join(f"Mitsuba {v}" for v in variants) + " | " + \
+        " | ".join(f"ratio vs {v}" for v in variants) + " |"
+    print("\n" + head)
+    print("|" + "---|" * (2 + 2 * len(variants) + 1))
+    for row in rows:
+        med = row["median_samples_per_s"]
+        cells = [f"{med['brdflab'] / 1e6:.2f} M"] + [f"{med[v] / 1e6:.2f} M" for v in variants]
+        cells += [f"**{row['ratio'][v]:.2f}×**" for v in variants]
+        print(f"| {row['case']} | {row['integrator']} | " + " | ".join(cells) + " |")
+    print(f"\nsamples/s, median of {a.rounds} alternating rounds, {a.spp} spp, {os.cpu_count()} cores, "
+          f"{time.strftime('%Y-%m-%d')}")
+    doc = {"date": time.strftime("%Y-%m-%d %H:%M"), "spp": a.spp, "rounds": a.rounds,
+           "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "processor": platform.processor()},
+           "llvm": llvm, "results": [row | {"runs": row["runs"]} for row in rows]}
+    a.json.parent.mkdir(parents=True, exist_ok=True)
+    a.json.write_text(json.dumps(doc, indent=2))
+    print(f"wrote {a.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
