@@ -76,6 +76,12 @@ class EnvironmentEmitter(Emitter):
             self.image = img
             self.h, self.w = img.shape[:2]
             self._scaled = img * (self.radiance / 255.0)  # texels already multiplied by radiance/255
+            # One contiguous plane per channel for 1-D gathers in eval, padded with two wrapped rows and
+            # columns so that the corners (⌊x⌋ + {0, 1}, ⌊y⌋ + {0, 1}) of any x ∈ [0, W], y ∈ [0, H] index
+            # it directly (no modulo).
+            padded = np.pad(self._scaled, ((0, 2), (0, 2), (0, 0)), mode="wrap")
+            self._pw = self.w + 2
+            self._planes = np.ascontiguousarray(np.moveaxis(padded, -1, 0).reshape(3, -1))
             lum = img @ LUMINANCE
             corners = (lum + np.roll(lum, -1, axis=1) + np.roll(lum, -1, axis=0)
                        + np.roll(np.roll(lum, -1, axis=0), -1, axis=1)) / 4.0
@@ -104,9 +110,12 @@ class EnvironmentEmitter(Emitter):
 
     # -- mapping between directions and texel coordinates -------------------------------------------------
     def _to_xy(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        phi = np.mod(np.arctan2(d[:, 2], d[:, 0]), 2 * np.pi)
+        u = np.arctan2(d[:, 2], d[:, 0])  # φ ∈ [−π, π]
+        u *= 0.5 / np.pi
+        if self.u_shift:
+            u += self.u_shift
+        u -= np.floor(u)  # φ/2π (+ shift) wrapped to [0, 1)
         cos_t = np.clip(d[:, 1], -1.0, 1.0)
-        u = np.mod(phi / (2 * np.pi) + self.u_shift, 1.0)
         v = np.arccos(cos_t) / np.pi
         return (1.0 - u) * self.w, (1.0 - v) * self.h, np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
 
@@ -122,21 +131,41 @@ class EnvironmentEmitter(Emitter):
         """Radiance (N, 3) arriving from unit world directions ``d``."""
         if self.image is None:
             return np.broadcast_to(self.radiance, (len(d), 3)).copy()
-        x, y, _ = self._to_xy(d)
-        ix, iy = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-        fx, fy = (x - ix)[:, None], (y - iy)[:, None]
-        x0, x1 = ix % self.w, (ix + 1) % self.w
-        y0, y1 = iy % self.h, (iy + 1) % self.h
-        t = self._scaled
-        out = (t[y0, x0] * ((1 - fx) * (1 - fy)) + t[y0, x1] * (fx * (1 - fy))
-               + t[y1, x0] * ((1 - fx) * fy) + t[y1, x1] * (fx * fy))
-        return np.asfortranarray(out)
+        return self._lookup(*self._to_xy(d)[:2])
+
+    def eval_pdf(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`eval` and :meth:`pdf` of the same directions, sharing the direction → texel mapping."""
+        if self.image is None:
+            return self.eval(d), self.pdf(d)
+        x, y, st = self._to_xy(d)
+        return self._lookup(x.copy(), y.copy()), self._pdf_xy(x, y, st)
+
+    def _lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Bilinear lookup at continuous texel positions (x, y) (modified in place)."""
+        np.clip(x, 0.0, self.w, out=x)
+        np.clip(y, 0.0, self.h, out=y)
+        fx, fy = np.floor(x), np.floor(y)
+        i00 = fy.astype(np.intp)
+        i00 *= self._pw
+        i00 += fx.astype(np.intp)
+        fx = x - fx
+        fy = y - fy
+        gx, gy = 1.0 - fx, 1.0 - fy
+        corners = ((i00, gx * gy), (i00 + 1, fx * gy), (i00 + self._pw, gx * fy), (i00 + (self._pw + 1), fx * fy))
+        out = np.zeros((len(x), 3), order="F")
+        for c in range(3):
+            plane, col = self._planes[c], out[:, c]
+            for idx, w in corners:
+                col += np.take(plane, idx, mode="clip") * w
+        return out
 
     def pdf(self, d: np.ndarray) -> np.ndarray:
         """Solid-angle density (N,) with which :meth:`sample` produces the directions ``d``."""
         if self.image is None:
             return np.full(len(d), 0.25 / np.pi)
-        x, y, st = self._to_xy(d)
+        return self._pdf_xy(*self._to_xy(d))
+
+    def _pdf_xy(self, x: np.ndarray, y: np.ndarray, st: np.ndarray) -> np.ndarray:
         p = self.dist.pdf(stack_cols(np.minimum(x, np.nextafter(self.w, 0)), np.minimum(y, np.nextafter(self.h, 0))))
         with np.errstate(divide="ignore", invalid="ignore"):
             out = p * (self.w * self.h) / (2 * np.pi**2 * st)
@@ -155,8 +184,8 @@ class EnvironmentEmitter(Emitter):
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = p_xy * (self.w * self.h) / (2 * np.pi**2 * st)
         ok = (st > 0) & np.isfinite(pdf) & (pdf > 0)
-        radiance = self.eval(d)
-        radiance[~ok] = 0.0
+        radiance = self._lookup(pts[:, 0].copy(), pts[:, 1].copy())  # the sampled texel position itself
+        radiance *= ok[:, None]
         return EmitterSample(d, np.full(n, np.inf), radiance, np.where(ok, pdf, 0.0))
 
     def power(self) -> float:

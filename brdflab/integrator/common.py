@@ -78,9 +78,9 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
     """Trace camera rays; apply the miss and emitter-hit rules; return (L, hits, shading points)."""
     hits = scene.geometry.intersect(o, d, tmax)
     L = np.zeros((len(o), 3), order="F")
-    miss = ~hits.valid
-    if miss.any():
-        L[miss] = background(scene, d[miss])
+    miss = np.flatnonzero(~hits.valid)
+    if len(miss):
+        L[miss] = background(scene, take_rows(d, miss))
     em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
     for e in np.unique(em[em >= 0]):
         sel = np.flatnonzero(em == e)
@@ -226,9 +226,9 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     if env is not None:
         miss = np.flatnonzero(~hits.valid)
         if len(miss):
-            Le[miss] = env.eval(d[miss])
-            e = scene.emitters.index(env)
-            pdf[miss] = env.pdf(d[miss]) * scene.emitter_pmf[e]
+            Le_env, pdf_env = env.eval_pdf(take_rows(d, miss))
+            Le[miss] = Le_env
+            pdf[miss] = pdf_env * scene.emitter_pmf[scene.emitters.index(env)]
     return Le, pdf
 
 

@@ -40,15 +40,15 @@ class Distribution1D:
         """Return (cell index, continuous position in [0, n), probability of the cell) for uniforms u."""
         idx = np.clip(np.searchsorted(self.cdf, u, side="right") - 1, 0, self.n - 1)
         # Zero-probability cells have zero width in the CDF and are never selected.
-        p = self.pmf[idx]
+        p = np.take(self.pmf, idx)
         with np.errstate(divide="ignore", invalid="ignore"):
-            off = np.where(p > 0, (u - self.cdf[idx]) / p, 0.5)
+            off = np.where(p > 0, (u - np.take(self.cdf, idx)) / p, 0.5)
         return idx, idx + np.clip(off, 0.0, np.nextafter(1.0, 0.0)), p
 
     def pdf(self, x: np.ndarray) -> np.ndarray:
         """Density at continuous positions x ∈ [0, n) (per unit length)."""
         i = np.clip(np.floor(x).astype(np.int64), 0, self.n - 1)
-        return np.where((x >= 0) & (x <= self.n), self.pmf[i], 0.0)
+        return np.where((x >= 0) & (x <= self.n), np.take(self.pmf, i), 0.0)
 
 
 class Distribution2D:
@@ -72,22 +72,29 @@ class Distribution2D:
         self.cond_cdf = cdf
         # Row-offset CDF so that one searchsorted finds the column within each sample's own row.
         self._flat = (cdf[:, :-1] + np.arange(self.h)[:, None]).ravel()
+        # Flat copies for 1-D gathers at index row·W + column.
+        self._cond_pmf_flat = cond.ravel()
+        self._cond_lo_flat = np.ascontiguousarray(cdf[:, :-1]).ravel()
+        self._density_flat = self.density.ravel()
 
     def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Sample points (N, 2) = (x, y) for uniforms (N, 2); return (points, density per unit area)."""
         row, y, _ = self.marginal.sample(u[:, 1])
         flat = np.searchsorted(self._flat, row + u[:, 0], side="right") - 1
         col = np.clip(flat - row * self.w, 0, self.w - 1)
-        p = self.cond_pmf[row, col]
-        lo = self.cond_cdf[row, col]
+        cell = row * self.w + col
+        p = np.take(self._cond_pmf_flat, cell)
+        lo = np.take(self._cond_lo_flat, cell)
         with np.errstate(divide="ignore", invalid="ignore"):
             off = np.where(p > 0, (u[:, 0] - lo) / p, 0.5)
-        x = col + np.clip(off, 0.0, np.nextafter(1.0, 0.0))
-        return np.stack([x, y], axis=1), self.density[row, col]
+        pts = np.empty((len(u), 2), order="F")
+        pts[:, 0] = col + np.clip(off, 0.0, np.nextafter(1.0, 0.0))
+        pts[:, 1] = y
+        return pts, np.take(self._density_flat, cell)
 
     def pdf(self, pts: np.ndarray) -> np.ndarray:
         """Density per unit area at points (N, 2) = (x, y)."""
         c = np.clip(np.floor(pts[:, 0]).astype(np.int64), 0, self.w - 1)
         r = np.clip(np.floor(pts[:, 1]).astype(np.int64), 0, self.h - 1)
         inside = (pts[:, 0] >= 0) & (pts[:, 0] <= self.w) & (pts[:, 1] >= 0) & (pts[:, 1] <= self.h)
-        return np.where(inside, self.density[r, c], 0.0)
+        return np.where(inside, np.take(self._density_flat, r * self.w + c), 0.0)
