@@ -16,9 +16,11 @@ parameter      tag                                        default   meaning
 
 both zero unless cos θ_i, cos θ_o > 0.
 
-Sampling is a mixture: with probability p_s = F_dielectric(cos θ_i) (on the macro normal) the microfacet
-lobe (Beckmann ω_h, reflection), otherwise the cosine-weighted hemisphere; the lobe choice uses the third
-uniform. p(ω_o) = p_s · D cos θ_h / (4 |ω_o·ω_h|) + (1 − p_s) · cos θ_o / π, weight = f cos θ_o / p.
+Sampling is a mixture: with probability p_s = min(F_dielectric(cos θ_i), 0.95) (on the macro normal) the
+microfacet lobe (Beckmann ω_h, reflection), otherwise the cosine-weighted hemisphere; the lobe choice uses
+the third uniform. The cap keeps the diffuse lobe reachable under total internal reflection (η_e > η_i,
+where F = 1 but f_diff > 0), which would otherwise bias BSDF-sampled estimates.
+p(ω_o) = p_s · D cos θ_h / (4 |ω_o·ω_h|) + (1 − p_s) · cos θ_o / π, weight = f cos θ_o / p.
 """
 
 from __future__ import annotations
@@ -32,6 +34,9 @@ from brdflab.bsdf.roughconductor import alpha_values, check_alpha
 from brdflab.math import warps
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
+
+#: Upper bound of the specular lobe's selection probability (see the module docstring).
+P_SPECULAR_MAX = 0.95
 
 
 class RoughSubstrate(BSDF):
@@ -76,7 +81,7 @@ class RoughSubstrate(BSDF):
             return np.ones_like(cos_i)
         if self.lobe == "diffuse":
             return np.zeros_like(cos_i)
-        return fresnel_dielectric(cos_i, self.ext_ior, self.int_ior)
+        return np.minimum(fresnel_dielectric(cos_i, self.ext_ior, self.int_ior), P_SPECULAR_MAX)
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """f(ω_i, ω_o) (N, 3), without the cosine."""

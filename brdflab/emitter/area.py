@@ -85,25 +85,7 @@ class AreaEmitter(Emitter):
 
     def _choose_triangles(self, u: np.ndarray) -> np.ndarray:
         """Triangle index (into the emitter's own list) with probability A_k / A, by CDF inversion."""
-        n_tri = len(self.tris)
-        if n_tri <= 8:
-            # Count of CDF entries ≤ u (= searchsorted side="right"), one comparison per triangle.
-            k = np.zeros(len(u), np.intp)
-            for c in self.cdf[:-1]:
-                k += u >= c
-            return k
-        return np.minimum(np.searchsorted(self.cdf, u, side="right"), n_tri - 1)
-
-    @staticmethod
-    def _interp(table: np.ndarray, k: np.ndarray, bu: np.ndarray, bv: np.ndarray, comps: int) -> list[np.ndarray]:
-        """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) from a packed (3·comps, K) triangle table."""
-        out = []
-        for j in range(comps):
-            c = np.take(table[j], k, mode="wrap")
-            c += bu * np.take(table[comps + j], k, mode="wrap")
-            c += bv * np.take(table[2 * comps + j], k, mode="wrap")
-            out.append(c)
-        return out
+        return invert_cdf(self.cdf, u)
 
     def le(self, uv: np.ndarray) -> np.ndarray:
         """Radiance (N, 3) emitted toward the front side at surface coordinates ``uv``."""
@@ -113,33 +95,7 @@ class AreaEmitter(Emitter):
         """Sample a point uniformly by area and return the solid-angle sample seen from ``ref_p``."""
         n = len(u)
         k = self._choose_triangles(u[:, 2])
-        # Folding warp (spec §9.1): barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2) of (p0, p1, p2) after folding
-        # the square onto the triangle, i.e. p = p0 + bu(p1 − p0) + bv(p2 − p0) with bu = ξ2, bv = 1 − ξ1 − ξ2.
-        u0, u1 = u[:, 0], u[:, 1]
-        fold = u0 + u1 > 1.0
-        b0 = np.where(fold, 1.0 - u0, u0)
-        bu = np.where(fold, 1.0 - u1, u1)
-        bv = 1.0 - b0
-        bv -= bu
-        px, py, pz = self._interp(self._pos, k, bu, bv, 3)
-        dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
-        dist2 = dx * dx
-        dist2 += dy * dy
-        dist2 += dz * dz
-        dist = np.sqrt(dist2)
-        inv = 1.0 / np.where(dist > 0, dist, 1.0)
-        wi = np.empty((n, 3), order="F")
-        np.multiply(dx, inv, out=wi[:, 0])
-        np.multiply(dy, inv, out=wi[:, 1])
-        np.multiply(dz, inv, out=wi[:, 2])
-        if self._nrm is None:
-            nx, ny, nz = (np.take(self._face_n[j], k, mode="wrap") for j in range(3))
-        else:
-            nx, ny, nz = self._interp(self._nrm, k, bu, bv, 3)
-            ln = np.sqrt(nx * nx + ny * ny + nz * nz)
-            ln[~(ln > 0)] = 1.0
-            nx, ny, nz = nx / ln, ny / ln, nz / ln
-        cos_l = -(nx * wi[:, 0] + ny * wi[:, 1] + nz * wi[:, 2])
+        wi, dist, dist2, cos_l, bu, bv = sample_triangle_points(self._pos, self._face_n, self._nrm, k, u, ref_p)
         # p_ω = ‖y − x‖² / (A |n_l·ω|) for front-facing light points, else 0.
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             pdf = dist2 / (self.area * cos_l)
@@ -152,7 +108,7 @@ class AreaEmitter(Emitter):
                 np.multiply(ok, value[j], out=radiance[:, j])
         else:
             uv = np.empty((n, 2), order="F")
-            uv[:, 0], uv[:, 1] = self._interp(self._uv, k, bu, bv, 2)
+            uv[:, 0], uv[:, 1] = interp_table(self._uv, k, bu, bv, 2)
             radiance[:] = 0.0
             sel = np.flatnonzero(ok)
             radiance[sel] = self.le(uv[sel])
@@ -173,3 +129,144 @@ class AreaEmitter(Emitter):
     def power(self) -> float:
         """Luminance of the mean radiance times the area (spec §8)."""
         return float(LUMINANCE @ (self.radiance.mean() * self.scale)) * self.area * np.pi
+
+
+def invert_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Index k with cdf[k−1] ≤ u < cdf[k] (``searchsorted`` side="right", clamped to the last entry).
+
+    Short CDFs (≤ 8 entries) count the entries ≤ u with one comparison each, which is several times
+    faster than a binary search per element.
+    """
+    if len(cdf) <= 8:
+        k = np.zeros(len(u), np.intp)
+        for c in cdf[:-1]:
+            k += u >= c
+        return k
+    return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
+
+
+def interp_table(table: np.ndarray, k: np.ndarray, bu: np.ndarray, bv: np.ndarray, comps: int) -> list[np.ndarray]:
+    """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) of triangles ``k`` in a packed (3·comps, K) table."""
+    out = []
+    for j in range(comps):
+        c = np.take(table[j], k, mode="wrap")
+        c += bu * np.take(table[comps + j], k, mode="wrap")
+        c += bv * np.take(table[2 * comps + j], k, mode="wrap")
+        out.append(c)
+    return out
+
+
+def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray | None, k: np.ndarray,
+                           u: np.ndarray, ref_p: np.ndarray):
+    """Uniform points on triangles ``k`` (packed tables) seen from ``ref_p``.
+
+    Folding warp (spec §9.1): barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2) of (p0, p1, p2) after folding the square
+    onto the triangle, i.e. y = p0 + bu(p1 − p0) + bv(p2 − p0) with bu = ξ2, bv = 1 − ξ1 − ξ2.
+
+    Returns
+    -------
+    (wi, dist, dist², cos θ_l, bu, bv)
+        Unit directions x → y (N, 3), distances, squared distances, n_l·(x − y)/‖x − y‖ with n_l the
+        shading normal at y, and the barycentrics.
+    """
+    n = len(u)
+    u0, u1 = u[:, 0], u[:, 1]
+    fold = u0 + u1 > 1.0
+    b0 = np.where(fold, 1.0 - u0, u0)
+    bu = np.where(fold, 1.0 - u1, u1)
+    bv = 1.0 - b0
+    bv -= bu
+    px, py, pz = interp_table(pos, k, bu, bv, 3)
+    dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
+    dist2 = dx * dx
+    dist2 += dy * dy
+    dist2 += dz * dz
+    dist = np.sqrt(dist2)
+    inv = 1.0 / np.where(dist > 0, dist, 1.0)
+    wi = np.empty((n, 3), order="F")
+    np.multiply(dx, inv, out=wi[:, 0])
+    np.multiply(dy, inv, out=wi[:, 1])
+    np.multiply(dz, inv, out=wi[:, 2])
+    if nrm is None:
+        nx, ny, nz = (np.take(face_n[j], k, mode="wrap") for j in range(3))
+    else:
+        nx, ny, nz = interp_table(nrm, k, bu, bv, 3)
+        ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+        ln[~(ln > 0)] = 1.0
+        nx, ny, nz = nx / ln, ny / ln, nz / ln
+    cos_l = -(nx * wi[:, 0] + ny * wi[:, 1] + nz * wi[:, 2])
+    return wi, dist, dist2, cos_l, bu, bv
+
+
+class AreaLightSet:
+    """All emitters of a scene fused into one triangle distribution, when every one of them is an area
+    light of constant radiance (the common case): choosing emitter e (pmf p_e) and then its triangle k
+    (A_k / A_e) is the same as choosing triangle k with probability p_e A_k / A_e, so one vectorised
+    sample serves all emitters — no grouping of shading points by emitter.
+
+    The solid-angle pdf, selection included, is p_e ‖y − x‖² / (A_e |n_l·ω|), as for the emitters one by
+    one.
+    """
+
+    def __init__(self, emitters: list[AreaEmitter], pmf: np.ndarray) -> None:
+        self.emitters = emitters
+        pos, face_n, nrm, rad, scale, prob = [], [], [], [], [], []
+        use_nrm = any(e._nrm is not None for e in emitters)
+        for e, p_e in zip(emitters, pmf, strict=True):
+            m = len(e.tris)
+            pos.append(e._pos)
+            face_n.append(e._face_n)
+            if use_nrm:
+                nrm.append(e._nrm if e._nrm is not None else np.concatenate([e._face_n, np.zeros((6, m))]))
+            rad.append(np.repeat((e.radiance.value * e.scale)[:, None], m, axis=1))
+            scale.append(np.full(m, p_e / e.area if e.area > 0 else 0.0))
+            areas = e.geometry.tri_area[e.tris]
+            prob.append(p_e * areas / e.area if e.area > 0 else np.zeros(m))
+        self._pos = np.ascontiguousarray(np.concatenate(pos, axis=1))
+        self._face_n = np.ascontiguousarray(np.concatenate(face_n, axis=1))
+        self._nrm = np.ascontiguousarray(np.concatenate(nrm, axis=1)) if use_nrm else None
+        self._radiance = np.ascontiguousarray(np.concatenate(rad, axis=1))
+        # Per emitter: radiance (3, E) and p_e / A_e, for rays that hit an emitter.
+        self._emitter_radiance = np.stack([e.radiance.value * e.scale for e in emitters], axis=1)
+        self._emitter_pdf_scale = np.array([p_e / e.area for e, p_e in zip(emitters, pmf, strict=True)])
+        self._pdf_scale = np.concatenate(scale)
+        prob = np.concatenate(prob)
+        self.cdf = np.cumsum(prob) / prob.sum()
+        self.cdf[-1] = 1.0
+
+    @staticmethod
+    def applies(emitters: list) -> bool:
+        """True when every emitter is an area light with constant radiance and positive area."""
+        return bool(emitters) and all(isinstance(e, AreaEmitter) and e.radiance.constant and e.area > 0
+                                      for e in emitters)
+
+    def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
+        """One light sample per reference point: ``u[:, 0]`` picks the triangle, ``u[:, 1:3]`` the point.
+
+        The returned pdf **includes** the selection probability.
+        """
+        n = len(u)
+        k = invert_cdf(self.cdf, u[:, 0])
+        wi, dist, dist2, cos_l, _, _ = sample_triangle_points(self._pos, self._face_n, self._nrm, k, u[:, 1:3], ref_p)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            pdf = dist2 * np.take(self._pdf_scale, k) / cos_l
+        ok = (cos_l > 0) & (pdf > 0) & (pdf < np.inf)
+        pdf = np.where(ok, pdf, 0.0)
+        radiance = np.empty((n, 3), order="F")
+        for j in range(3):
+            np.multiply(np.take(self._radiance[j], k), ok, out=radiance[:, j])
+        return EmitterSample(wi, dist, radiance, pdf)
+
+    def eval_pdf_hit(self, emitter: np.ndarray, dist: np.ndarray, ns: np.ndarray,
+                     d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Radiance and light-sampling pdf (selection included) of rays ``d`` that hit emitters
+        ``emitter`` at distance ``dist`` with shading normal ``ns`` (as :meth:`AreaEmitter.eval_hit` and
+        :meth:`AreaEmitter.pdf_hit` times p_e, for all emitters at once)."""
+        cos_l = -(ns[:, 0] * d[:, 0] + ns[:, 1] * d[:, 1] + ns[:, 2] * d[:, 2])
+        front = cos_l > 0
+        le = np.empty((len(d), 3), order="F")
+        for j in range(3):
+            np.multiply(np.take(self._emitter_radiance[j], emitter), front, out=le[:, j])
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            pdf = dist * dist * np.take(self._emitter_pdf_scale, emitter) / cos_l
+        return le, np.where(front & (pdf < np.inf), pdf, 0.0)

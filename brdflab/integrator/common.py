@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.emitter.area import AreaLightSet
 from brdflab.math.frame import frame_from_normal, take_rows, to_local, to_world
 from brdflab.scene.geometry import Hits
 from brdflab.scene.properties import PropertyList
@@ -179,6 +180,19 @@ def choose_emitters(scene, u: np.ndarray) -> np.ndarray:
     return np.minimum(k, len(scene.emitters) - 1)
 
 
+def area_light_set(scene) -> AreaLightSet | None:
+    """The scene's fused :class:`AreaLightSet` (built once), or None when it does not apply.
+
+    Only with several emitters: a single area light samples just as fast on its own.
+    """
+    cached = scene.__dict__.get("_area_light_set", False)
+    if cached is False:
+        ok = len(scene.emitters) > 1 and AreaLightSet.applies(scene.emitters)
+        cached = AreaLightSet(scene.emitters, scene.emitter_pmf) if ok else None
+        scene.__dict__["_area_light_set"] = cached
+    return cached
+
+
 def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]``; trace shadow rays."""
     m = len(sp.p)
@@ -190,13 +204,17 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     delta = np.zeros(m, bool)
     if m == 0 or not scene.emitters:
         return LightSamples(wi, radiance, pdf, delta)
-    choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
-    for e, sel in by_group(choice):
-        em = scene.emitters[e]
-        r = em.sample(rows(sp.p, sel), rows(u, sel)[:, 1:4])
-        wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
-        pdf[sel] = r.pdf * scene.emitter_pmf[e]
-        delta[sel] = em.is_delta
+    fused = area_light_set(scene)
+    if fused is not None:
+        wi, dist, radiance, pdf = fused.sample(sp.p, u)
+    else:
+        choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
+        for e, sel in by_group(choice):
+            em = scene.emitters[e]
+            r = em.sample(rows(sp.p, sel), rows(u, sel)[:, 1:4])
+            wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
+            pdf[sel] = r.pdf * scene.emitter_pmf[e]
+            delta[sel] = em.is_delta
     live = np.flatnonzero((pdf > 0) & any_positive(radiance))
     if len(live):
         g = scene.geometry
@@ -217,6 +235,13 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     Le = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
+    fused = area_light_set(scene)
+    if fused is not None:
+        hit = np.flatnonzero(em >= 0)
+        if len(hit):
+            Le[hit], pdf[hit] = fused.eval_pdf_hit(np.take(em, hit), np.take(hits.t, hit), take_rows(hits.ns, hit),
+                                                   take_rows(d, hit))
+        return Le, pdf
     for e, sel in by_group(em):
         emitter = scene.emitters[e]
         ns, d_e = rows(hits.ns, sel), rows(d, sel)
