@@ -108,7 +108,7 @@ def _plot(tri_rows: list[dict], worker_rows: list[dict], out: Path, spp: int) ->
     axt.set_ylabel("load + BVH build (s)", color="tab:red")
     axt.set_ylim(bottom=0)
     ax1.set_title(f"Triangle count (displaced sphere, 800×600, {spp} spp)")
-    labels = [f"{r['case']}\n{r['integrator'].removeprefix('direct_')}" for r in worker_rows]
+    labels = [f"{r['case'].split('_')[0]}\n{r['integrator'].removeprefix('direct_')}" for r in worker_rows]
     x = range(len(worker_rows))
     ax2.bar([i - 0.2 for i in x], [r["one"] / 1e6 for r in worker_rows], 0.4, label="1 worker")
     ax2.bar([i + 0.2 for i in x], [r["two"] / 1e6 for r in worker_rows], 0.4, label="2 workers")
@@ -116,6 +116,7 @@ def _plot(tri_rows: list[dict], worker_rows: list[dict], out: Path, spp: int) ->
         ax2.text(i + 0.2, r["two"] / 1e6, f"×{r['speedup']:.2f}", ha="center", va="bottom", fontsize=7)
     ax2.set_xticks(list(x), labels, fontsize=7)
     ax2.set_ylabel("M samples/s")
+    ax2.set_ylim(0, 1.25 * max(r["two"] for r in worker_rows) / 1e6)
     ax2.set_title("Workers (threads)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
