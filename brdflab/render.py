@@ -1,10 +1,20 @@
-"""The render loop: sample passes × tiles on a thread pool, merged deterministically.
+"""The render loop: sample passes × tiles on worker processes, merged deterministically.
 
 Work is split into *passes* (a number of samples per pixel) and, within a pass, into square *tiles*.
 Each (pass, tile) unit draws all its random numbers from its own ``numpy.random.Generator`` seeded with
-``SeedSequence([seed, pass, tile])`` and splats into a private tile film; the main thread adds the tile
+``SeedSequence([seed, pass, tile])`` and splats into a private tile film; the main process adds the tile
 films into the image in unit order. The image is therefore bit-identical for any number of workers.
-Worker threads run NumPy and embreex code, both of which release the GIL for the heavy work.
+
+Workers are **forked processes** (they inherit the loaded scene and its Embree BVH copy-on-write; a unit
+returns only its small tile film and its ray counters). Threads were measured first: a unit of 16 k
+samples makes ~1 300 NumPy calls of ~10 µs, and with the GIL held between (and during some of) them two
+threads reached only 1.3–1.6× one. Forked workers reach 1.85×. Where ``fork`` is unavailable the pool
+falls back to threads. At most :data:`IN_FLIGHT` units per worker are queued, so a stop request (Ctrl-C,
+``time_limit``) takes effect within about one unit.
+
+Units hold about :data:`UNIT_SAMPLES` camera samples: small enough that a batch's ~20 live float64 columns
+stay in the 2 MiB per-core L2 cache (measured on the Cornell box, one worker: 65 k samples 1.71 M
+samples/s, 16 k 1.97 M, 4 k 1.60 M, where the per-call overhead takes over).
 
 Pass sizes are 1, 1, 2, 4, … (doubling up to ``max_pass``), then ``max_pass`` each, so every power of
 two up to the final count is a pass boundary: a progressive run of 256 spp yields the 1, 2, 4, …, 128
@@ -14,20 +24,27 @@ spp images as checkpoints (:func:`render` ``on_pass``), each with its elapsed ti
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
+import signal
 import threading
 import time
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from brdflab.alloc import tune_allocator
 from brdflab.film import Film
+from brdflab.scene.geometry import RayStats
 
-#: Target number of camera samples per work unit (fits comfortably in cache-friendly batches).
-UNIT_SAMPLES = 1 << 16
+#: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
+UNIT_SAMPLES = 1 << 14
+#: Units queued per worker ahead of the one being merged.
+IN_FLIGHT = 3
 
 
 def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
@@ -100,6 +117,7 @@ class RenderStats:
 
 def _render_unit(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
                  seed: int) -> tuple[Film, int, int]:
+    """Render one (pass, tile) unit into a tile film; returns (film, samples, dropped samples)."""
     x0, y0, w, h = tile
     cam = scene.camera
     rng = np.random.default_rng([seed, pass_index, tile_index])
@@ -118,6 +136,84 @@ def _render_unit(scene, pass_index: int, tile_index: int, tile: tuple[int, int, 
     else:
         film.splat(sx, sy, L)
     return film, n, dropped
+
+
+#: The scene of the render in progress, inherited by forked workers (see :func:`_process_unit`).
+_FORK_SCENE = None
+_FORK_LOCK = threading.Lock()
+
+
+def _worker_init() -> None:
+    """In a forked worker: leave Ctrl-C to the parent, count rays afresh."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _FORK_SCENE.geometry.stats = RayStats()  # a fresh lock: the parent's may have been held at fork
+
+
+def _process_unit(u: tuple) -> tuple[np.ndarray, int, int, int, float]:
+    """A unit in a forked worker: (tile film data, samples, dropped, rays, seconds in Embree)."""
+    scene = _FORK_SCENE
+    st = scene.geometry.stats
+    st.reset()
+    film, n, dropped = _render_unit(scene, *u)
+    return film.data, n, dropped, st.rays, st.seconds
+
+
+def _executor(workers: int) -> tuple[Executor | None, bool]:
+    """(pool, is a process pool): forked processes where available, else threads; None for one worker."""
+    if workers <= 1:
+        return None, False
+    if "fork" in multiprocessing.get_all_start_methods():
+        return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_worker_init), True
+    return ThreadPoolExecutor(workers), False
+
+
+def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading.Event) -> Iterator[tuple]:
+    """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``.
+
+    Rays and seconds are those counted in worker processes (0 for in-process units, which count in
+    ``scene.geometry.stats`` directly).
+    """
+    cam = scene.camera
+    pool, forked = _executor(workers)
+    if pool is None:
+        for u in units:
+            if halt.is_set():
+                return
+            film, n, dropped = _render_unit(scene, *u, seed)
+            yield film, n, dropped, 0, 0.0
+        return
+    global _FORK_SCENE
+    with _FORK_LOCK if forked else nullcontext():
+        if forked:
+            _FORK_SCENE = scene
+        try:
+            pending: deque = deque()
+            todo = iter(units)
+
+            def submit() -> None:
+                u = next(todo, None)
+                if u is not None:
+                    pending.append((u, pool.submit(_process_unit, (*u, seed)) if forked
+                                    else pool.submit(_render_unit, scene, *u, seed)))
+
+            for _ in range(IN_FLIGHT * workers):
+                submit()
+            while pending and not halt.is_set():
+                u, fut = pending.popleft()
+                res = fut.result()
+                submit()
+                if forked:
+                    data, n, dropped, rays, secs = res
+                    x0, y0, w, h = u[2]
+                    film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h)
+                    film.data = data
+                    yield film, n, dropped, rays, secs
+                else:
+                    yield (*res, 0, 0.0)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+            _FORK_SCENE = None
 
 
 def render(
@@ -141,7 +237,7 @@ def render(
     spp, seed
         Samples per pixel and seed (default: the scene's sampler).
     workers
-        Worker threads (default: the number of CPU cores).
+        Worker processes (default: the number of CPU cores; see the module docstring).
     progress
         Called after every unit with (fraction done, running stats).
     on_pass
@@ -189,46 +285,40 @@ def render(
     done_spp = 0
     done_samples = 0
     halt = threading.Event()
-
-    def job(u):
-        if halt.is_set() or (stop is not None and stop.is_set()):
-            return None
-        return _render_unit(scene, u[0], u[1], u[2], u[3], seed)
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        results = pool.map(job, units) if workers > 1 else map(job, units)
-        pass_film = Film(cam.width, cam.height, scene.filter)
-        for i, res in enumerate(results):
-            if res is None:
+    worker_rays, worker_seconds = 0, 0.0
+    pass_film = Film(cam.width, cam.height, scene.filter)
+    results = _results(scene, units, seed, workers, halt)
+    for i, (tile_film, n, dropped, rays, secs) in enumerate(results):
+        if stop is not None and stop.is_set():
+            halt.set()  # keep only the completed passes; running units finish and are discarded
+            break
+        pass_film.add(tile_film)
+        done_samples += n
+        worker_rays += rays
+        worker_seconds += secs
+        stats.dropped += dropped
+        stats.seconds = time.perf_counter() - t0
+        stats.samples = done_samples
+        stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
+        if progress is not None:
+            progress(done_samples / total, stats)
+        p = units[i][0]
+        if i == pass_last[p]:
+            film.data += pass_film.data
+            pass_film.data[:] = 0.0
+            done_spp += units[i][3]
+            stats.spp = done_spp
+            stats.checkpoints.append((done_spp, stats.seconds))
+            if on_pass is not None:
+                on_pass(done_spp, stats.seconds, film)
+            nxt = sizes[p + 1] if p + 1 < len(sizes) else 0
+            over_time = (time_limit is not None and nxt
+                         and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
+            if (stop is not None and stop.is_set()) or over_time:
+                halt.set()
                 break
-            if stop is not None and stop.is_set():
-                halt.set()  # keep only the completed passes; workers finish their unit and return
-                break
-            tile_film, n, dropped = res
-            pass_film.add(tile_film)
-            done_samples += n
-            stats.dropped += dropped
-            stats.seconds = time.perf_counter() - t0
-            stats.samples = done_samples
-            stats.rays, stats.ray_seconds = geo.stats.rays, geo.stats.seconds
-            if progress is not None:
-                progress(done_samples / total, stats)
-            p = units[i][0]
-            if i == pass_last[p]:
-                film.data += pass_film.data
-                pass_film.data[:] = 0.0
-                done_spp += units[i][3]
-                stats.spp = done_spp
-                stats.checkpoints.append((done_spp, stats.seconds))
-                if on_pass is not None:
-                    on_pass(done_spp, stats.seconds, film)
-                nxt = sizes[p + 1] if p + 1 < len(sizes) else 0
-                over_time = (time_limit is not None and nxt
-                             and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
-                if (stop is not None and stop.is_set()) or over_time:
-                    halt.set()
-                    break
+    results.close()  # ends the workers now (queued units are cancelled)
     stats.seconds = time.perf_counter() - t0
-    stats.rays, stats.ray_seconds = geo.stats.rays, geo.stats.seconds
+    stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
     stats.samples = done_spp * cam.width * cam.height
     return film.image(), stats

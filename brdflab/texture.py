@@ -18,6 +18,9 @@ import numpy as np
 
 from brdflab.scene.properties import PropertyList
 
+#: Rec. 709 / sRGB luminance weights (sum 1, so a grey value is its own luminance).
+LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+
 
 class Texture:
     """A spatially varying colour looked up by surface uv."""
@@ -32,6 +35,10 @@ class Texture:
     def mean(self) -> np.ndarray:
         """Average colour (3,), used for emitter power and reports."""
         raise NotImplementedError
+
+    def luminance(self, uv: np.ndarray) -> np.ndarray | float:
+        """Luminance Y (Rec. 709 / sRGB weights) per uv: (N,), or a float for a constant texture."""
+        return self.eval(uv) @ LUMINANCE
 
 
 class ConstantTexture(Texture):
@@ -49,6 +56,58 @@ class ConstantTexture(Texture):
     def mean(self) -> np.ndarray:
         """Return the colour itself."""
         return self.value
+
+    def luminance(self, uv: np.ndarray | None = None) -> float:
+        """The constant's luminance (``uv`` is ignored)."""
+        return float(LUMINANCE @ self.value)
+
+
+class PointValues(Texture):
+    """Per-point values for one batch of N shading points, in batch order (not a function of uv).
+
+    A family of materials that differ only in constant parameters is evaluated as one batch, each point
+    with its own material's constant (see :mod:`brdflab.bsdf.family`). The values are gathered from the
+    members' constants on first use.
+
+    Parameters
+    ----------
+    table
+        (3, K) the K members' colours.
+    lum
+        (K,) their luminances (the members' own :meth:`ConstantTexture.luminance`, so a grey roughness is
+        bit-identical to the per-member evaluation).
+    index
+        (N,) member index of each point.
+    """
+
+    def __init__(self, table: np.ndarray, lum: np.ndarray, index: np.ndarray) -> None:
+        self.table, self.lum, self.index = table, lum, index
+        self._values: np.ndarray | None = None
+        self._luminance: np.ndarray | None = None
+
+    def eval(self, uv: np.ndarray) -> np.ndarray:
+        """(N, 3) colours of the batch's points (``uv`` only fixes the batch size)."""
+        if len(uv) != len(self.index):
+            raise ValueError(f"PointValues holds {len(self.index)} points, asked for {len(uv)}")
+        return self._gathered()
+
+    def _gathered(self) -> np.ndarray:
+        if self._values is None:
+            v = np.empty((len(self.index), 3), order="F")
+            for j in range(3):
+                np.take(self.table[j], self.index, out=v[:, j])
+            self._values = v
+        return self._values
+
+    def mean(self) -> np.ndarray:
+        """Mean colour over the batch's points."""
+        return self._gathered().mean(axis=0)
+
+    def luminance(self, uv: np.ndarray) -> np.ndarray:
+        """(N,) luminances of the batch's points."""
+        if self._luminance is None:
+            self._luminance = np.take(self.lum, self.index)
+        return self._luminance
 
 
 class CheckerTexture(Texture):

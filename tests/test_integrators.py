@@ -126,8 +126,11 @@ def test_assignment3_cbox_mats_agrees_with_ems(stem):
     ems = shared_scene(f"assignment-3/cbox/{stem}_ems.xml")
     a = _small(load_scene(ems), 80)
     b = _small(load_scene(mats), 80)
-    ia, _ = render(a, spp=64, seed=1)
-    ib, _ = render(b, spp=256, seed=2)
+    # BSDF sampling of these small lights scatters its image mean by ±0.4 % at 256 spp over seeds (and
+    # emitter sampling by ±0.2 % at 64 spp; measured), so 256/1024 spp put 1 % at about 4σ; a missing
+    # Jacobian or cosine is off by tens of percent.
+    ia, _ = render(a, spp=256, seed=1)
+    ib, _ = render(b, spp=1024, seed=2)
     assert abs(ib.mean() / ia.mean() - 1) < 0.01
 
 

@@ -6,6 +6,7 @@ cos θ = z). ``wi`` points toward the previous vertex (the camera), ``wo`` towar
 * ``eval(wi, wo, uv)`` → f(wi, wo) of shape (N, 3), **without** the cosine; 0 unless cos θi > 0 and
   cos θo > 0 (one-sided).
 * ``pdf(wi, wo, uv)`` → solid-angle density (N,) of ``wo`` as realised by ``sample``.
+* ``eval_pdf(wi, wo, uv)`` → both at once (bit-identical to the two calls; shares the half vector, D …).
 * ``sample(wi, u, uv)`` → :class:`BSDFSample` with ``wo``, ``pdf`` and ``weight`` = f·cos θo / pdf,
   exactly ``eval·cos/pdf``; 0 where the sample failed (cos θi ≤ 0, wo below the surface, pdf = 0).
   ``u`` has shape (N, 3): (ξ1, ξ2) drive the direction warp, ξ3 the lobe choice. All randomness comes
@@ -14,11 +15,12 @@ cos θ = z). ``wi`` points toward the previous vertex (the camera), ``wo`` towar
 
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import numpy as np
 
-from brdflab.texture import Texture
+from brdflab.texture import PointValues, Texture
 
 
 class BSDFSample(NamedTuple):
@@ -48,6 +50,10 @@ class BSDF:
         """Return the solid-angle density (N,) with which :meth:`sample` produces ``wo``."""
         raise NotImplementedError
 
+    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`eval`, :meth:`pdf`) of the same directions; materials override it to share the work."""
+        return self.eval(wi, wo, uv), self.pdf(wi, wo, uv)
+
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
         """Sample ``wo`` given ``wi`` and uniforms ``u`` of shape (N, 3)."""
         raise NotImplementedError
@@ -55,6 +61,29 @@ class BSDF:
     def set_texture(self, slot: str, texture: Texture) -> None:
         """Attach a child texture to ``slot`` (one of :attr:`texture_slots`)."""
         setattr(self, slot, texture)
+
+    def scalar_parameters(self) -> tuple:
+        """The parameters that are not texture slots (e.g. indices of refraction), as a hashable tuple."""
+        return ()
+
+    def family_key(self) -> tuple | None:
+        """Materials with equal keys can be evaluated as one batch with per-point parameters.
+
+        Two instances of one class whose texture slots are all constant and whose
+        :meth:`scalar_parameters` agree differ only in their constants: a batch of shading points on
+        either is evaluated by one :meth:`with_point_values` copy instead of one call per material.
+        Returns None when the material must be evaluated on its own (a texture that varies with uv).
+        """
+        if not all(getattr(self, slot).constant for slot in self.texture_slots):
+            return None
+        return (type(self), *self.scalar_parameters())
+
+    def with_point_values(self, values: dict[str, PointValues]) -> BSDF:
+        """A shallow copy whose texture slots hold the given per-point values (one batch of points)."""
+        clone = copy.copy(self)
+        for slot, tex in values.items():
+            setattr(clone, slot, tex)
+        return clone
 
 
 def cos_weight(f: np.ndarray, wo: np.ndarray, pdf: np.ndarray) -> np.ndarray:

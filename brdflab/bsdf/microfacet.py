@@ -39,10 +39,11 @@ def beckmann_d(cos_theta_h: np.ndarray, alpha: np.ndarray | float) -> np.ndarray
     return np.where(ok & np.isfinite(d), d, 0.0)
 
 
-def smith_g1(v: np.ndarray, wh: np.ndarray, alpha: np.ndarray | float) -> np.ndarray:
-    """Rational Smith G1(v, ω_h) for the Beckmann NDF (Walter et al. 2007, eq. 27)."""
+def smith_g1(v: np.ndarray, wh: np.ndarray, alpha: np.ndarray | float, vh: np.ndarray | None = None) -> np.ndarray:
+    """Rational Smith G1(v, ω_h) for the Beckmann NDF (Walter et al. 2007, eq. 27); ``vh`` = v·ω_h if known."""
     cos_v = v[:, 2]
-    vh = v[:, 0] * wh[:, 0] + v[:, 1] * wh[:, 1] + v[:, 2] * wh[:, 2]
+    if vh is None:
+        vh = v[:, 0] * wh[:, 0] + v[:, 1] * wh[:, 1] + v[:, 2] * wh[:, 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         chi = (vh / cos_v) > 0
         tan_v = np.sqrt(np.maximum(1.0 - cos_v * cos_v, 0.0)) / np.abs(cos_v)
@@ -68,9 +69,15 @@ def reflect(wi: np.ndarray, wh: np.ndarray) -> np.ndarray:
     return 2.0 * d[:, None] * wh - wi
 
 
-def reflection_pdf(wh: np.ndarray, wo: np.ndarray, alpha: np.ndarray | float) -> np.ndarray:
-    """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|) for ω_o reflected about a Beckmann-sampled ω_h."""
+def reflection_pdf(wh: np.ndarray, wo: np.ndarray, alpha: np.ndarray | float,
+                   d: np.ndarray | None = None) -> np.ndarray:
+    """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|) for ω_o reflected about a Beckmann-sampled ω_h.
+
+    ``d`` is D(ω_h) when the caller has it already.
+    """
     oh = np.abs(wo[:, 0] * wh[:, 0] + wo[:, 1] * wh[:, 1] + wo[:, 2] * wh[:, 2])
+    if d is None:
+        d = beckmann_d(wh[:, 2], alpha)
     with np.errstate(divide="ignore", invalid="ignore"):
-        p = beckmann_d(wh[:, 2], alpha) * np.maximum(wh[:, 2], 0.0) / (4.0 * oh)
+        p = d * np.maximum(wh[:, 2], 0.0) / (4.0 * oh)
     return np.where(np.isfinite(p), p, 0.0)

@@ -31,14 +31,12 @@ from brdflab.math import warps
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
 
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
-
 
 def alpha_values(tex: Texture, uv: np.ndarray | None, n: int) -> np.ndarray | float:
     """Roughness per query: the constant, or the luminance of a texture at ``uv``."""
     if tex.constant:
-        return float(LUMINANCE @ tex.mean())  # the weights sum to 1, so a grey value is kept exactly
-    return tex.eval(uv_or_zeros(uv, n)) @ LUMINANCE
+        return tex.luminance()  # the weights sum to 1, so a grey value is kept exactly
+    return tex.luminance(uv_or_zeros(uv, n))
 
 
 def check_alpha(props: PropertyList) -> float:
@@ -68,36 +66,51 @@ class RoughConductor(BSDF):
         """The (mean) roughness, for reports."""
         return float(np.mean(self.alpha.mean()))
 
-    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
-        """f(ω_i, ω_o) (N, 3), without the cosine."""
+    def _terms(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None, need_f: bool,
+               need_pdf: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """f and/or p of the same directions, sharing ω_h, D(ω_h) and ω_i·ω_h."""
         n = len(wi)
         a = alpha_values(self.alpha, uv, n)
-        ci, co = wi[:, 2], wo[:, 2]
+        ci = wi[:, 2]
         wh, okh = half_vector(wi, wo)
-        ok = (ci > 0) & (co > 0) & okh
+        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
         d = beckmann_d(wh[:, 2], a)
-        g = smith_g1(wi, wh, a) * smith_g1(wo, wh, a)
-        hi = np.clip(wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2], 0.0, 1.0)
-        f = fresnel_schlick(hi, self.R0.eval(uv_or_zeros(uv, n)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.where(ok, d * g / (4.0 * ci * co), 0.0)
-        s = np.where(np.isfinite(s), s, 0.0)
-        return f * s[:, None]
+        f = pdf = None
+        if need_f:
+            co = wo[:, 2]
+            ok = (ci > 0) & (co > 0) & okh
+            g = smith_g1(wi, wh, a, hi) * smith_g1(wo, wh, a)
+            fr = fresnel_schlick(np.clip(hi, 0.0, 1.0), self.R0.eval(uv_or_zeros(uv, n)))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = np.where(ok, d * g / (4.0 * ci * co), 0.0)
+            s = np.where(np.isfinite(s), s, 0.0)
+            f = fr * s[:, None]
+        if need_pdf:
+            ok = (ci > 0) & okh & (hi > 0)
+            pdf = np.where(ok, reflection_pdf(wh, wo, a, d), 0.0)
+        return f, pdf
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """f(ω_i, ω_o) (N, 3), without the cosine."""
+        return self._terms(wi, wo, uv, True, False)[0]
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|), 0 for cos θ_i ≤ 0 or ω_i·ω_h ≤ 0."""
-        a = alpha_values(self.alpha, uv, len(wi))
-        wh, okh = half_vector(wi, wo)
-        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
-        ok = (wi[:, 2] > 0) & okh & (hi > 0)
-        return np.where(ok, reflection_pdf(wh, wo, a), 0.0)
+        return self._terms(wi, wo, uv, False, True)[1]
+
+    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """f and p together (one half vector and one D(ω_h))."""
+        return self._terms(wi, wo, uv, True, True)
 
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
-        """Sample ω_h ∝ D cos θ_h and reflect ω_i about it."""
+        """Sample ω_h ∝ D cos θ_h and reflect ω_i about it.
+
+        f and p are then evaluated from (ω_i, ω_o) exactly as :meth:`eval` and :meth:`pdf` do, so the
+        weight is eval·cos/pdf and the pdf equals :meth:`pdf` to the last bit. A microfacet facing away
+        from ω_i (ω_i·ω_h < 0) gives an ω_o whose half vector is −ω_h, below the surface: D = 0 there, so
+        such samples fail (pdf 0).
+        """
         a = alpha_values(self.alpha, uv, len(wi))
-        wh = warps.square_to_beckmann(u[:, :2], a)
-        wo = reflect(wi, wh)
-        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
-        ok = (wi[:, 2] > 0) & (hi > 0)
-        pdf = np.where(ok, reflection_pdf(wh, wo, a), 0.0)
-        return BSDFSample(wo, cos_weight(self.eval(wi, wo, uv), wo, pdf), pdf)
+        wo = reflect(wi, warps.square_to_beckmann(u[:, :2], a))
+        f, pdf = self.eval_pdf(wi, wo, uv)
+        return BSDFSample(wo, cos_weight(f, wo, pdf), pdf)

@@ -71,6 +71,10 @@ class RoughSubstrate(BSDF):
         return cls(props.nonnegative_color("kd", np.full(3, 0.5)), check_alpha(props),
                    props.positive_float("intIOR", 1.5046), props.positive_float("extIOR", 1.000277))
 
+    def scalar_parameters(self) -> tuple:
+        """(η_int, η_ext, lobe): materials of one family must share them."""
+        return (self.int_ior, self.ext_ior, self.lobe)
+
     @property
     def alpha_value(self) -> float:
         """The (mean) roughness, for reports."""
@@ -83,44 +87,55 @@ class RoughSubstrate(BSDF):
             return np.zeros_like(cos_i)
         return np.minimum(fresnel_dielectric(cos_i, self.ext_ior, self.int_ior), P_SPECULAR_MAX)
 
-    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
-        """f(ω_i, ω_o) (N, 3), without the cosine."""
+    def _terms(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None, need_f: bool,
+               need_pdf: bool, ps: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """f and/or p of the same directions, sharing ω_h, D(ω_h) and ω_i·ω_h (``ps``: p_s if known)."""
         n = len(wi)
         ci, co = wi[:, 2], wo[:, 2]
-        ok = (ci > 0) & (co > 0)
-        out = np.zeros((n, 3), order="F")
-        if self.lobe != "specular":
-            s = self.diffuse_scale * (1.0 - (1.0 - 0.5 * ci) ** 5) * (1.0 - (1.0 - 0.5 * co) ** 5)
-            out += self.kd.eval(uv_or_zeros(uv, n)) * np.where(ok, s, 0.0)[:, None]
-        if self.lobe != "diffuse":
+        f = pdf = None
+        a = wh = okh = hi = d = None
+        if need_pdf or self.lobe != "diffuse":
             a = alpha_values(self.alpha, uv, n)
             wh, okh = half_vector(wi, wo)
-            hi = np.clip(wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2], 0.0, 1.0)
-            fr = fresnel_dielectric(hi, self.ext_ior, self.int_ior)
+            hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
             d = beckmann_d(wh[:, 2], a)
-            g = smith_g1(wi, wh, a) * smith_g1(wo, wh, a)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                m = np.where(ok & okh, d * fr * g / (4.0 * ci * co), 0.0)
-            out += np.where(np.isfinite(m), m, 0.0)[:, None]
-        return out
+        if need_f:
+            ok = (ci > 0) & (co > 0)
+            f = np.zeros((n, 3), order="F")
+            if self.lobe != "specular":
+                s = self.diffuse_scale * (1.0 - (1.0 - 0.5 * ci) ** 5) * (1.0 - (1.0 - 0.5 * co) ** 5)
+                f += self.kd.eval(uv_or_zeros(uv, n)) * np.where(ok, s, 0.0)[:, None]
+            if self.lobe != "diffuse":
+                fr = fresnel_dielectric(np.clip(hi, 0.0, 1.0), self.ext_ior, self.int_ior)
+                g = smith_g1(wi, wh, a, hi) * smith_g1(wo, wh, a)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    m = np.where(ok & okh, d * fr * g / (4.0 * ci * co), 0.0)
+                f += np.where(np.isfinite(m), m, 0.0)[:, None]
+        if need_pdf:
+            if ps is None:
+                ps = self._p_specular(ci)
+            p_mf = np.where(okh & (hi > 0), reflection_pdf(wh, wo, a, d), 0.0)
+            p_d = warps.square_to_cosine_hemisphere_pdf(wo)
+            pdf = np.where(ci > 0, ps * p_mf + (1.0 - ps) * p_d, 0.0)
+        return f, pdf
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+        """f(ω_i, ω_o) (N, 3), without the cosine."""
+        return self._terms(wi, wo, uv, True, False)[0]
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """Mixture density p_s · p_mf(ω_o) + (1 − p_s) · cos θ_o/π (0 for cos θ_i ≤ 0)."""
-        ci = wi[:, 2]
-        ps = self._p_specular(ci)
-        a = alpha_values(self.alpha, uv, len(wi))
-        wh, okh = half_vector(wi, wo)
-        hi = wh[:, 0] * wi[:, 0] + wh[:, 1] * wi[:, 1] + wh[:, 2] * wi[:, 2]
-        p_mf = np.where(okh & (hi > 0), reflection_pdf(wh, wo, a), 0.0)
-        p_d = warps.square_to_cosine_hemisphere_pdf(wo)
-        return np.where(ci > 0, ps * p_mf + (1.0 - ps) * p_d, 0.0)
+        return self._terms(wi, wo, uv, False, True)[1]
+
+    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """f and p together (one half vector and one D(ω_h))."""
+        return self._terms(wi, wo, uv, True, True)
 
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
         """Choose a lobe with the third uniform, sample it, and weight by the mixture density."""
-        ci = wi[:, 2]
-        spec = u[:, 2] < self._p_specular(ci)
+        ps = self._p_specular(wi[:, 2])
         a = alpha_values(self.alpha, uv, len(wi))
         wh = warps.square_to_beckmann(u[:, :2], a)
-        wo = np.where(spec[:, None], reflect(wi, wh), warps.square_to_cosine_hemisphere(u[:, :2]))
-        pdf = self.pdf(wi, wo, uv)
-        return BSDFSample(wo, cos_weight(self.eval(wi, wo, uv), wo, pdf), pdf)
+        wo = np.where((u[:, 2] < ps)[:, None], reflect(wi, wh), warps.square_to_cosine_hemisphere(u[:, :2]))
+        f, pdf = self._terms(wi, wo, uv, True, True, ps)
+        return BSDFSample(wo, cos_weight(f, wo, pdf), pdf)

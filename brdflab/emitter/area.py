@@ -23,9 +23,7 @@ import numpy as np
 from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math.frame import dot
 from brdflab.scene.properties import PropertyList
-from brdflab.texture import Texture, as_texture
-
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+from brdflab.texture import LUMINANCE, Texture, as_texture
 
 
 class AreaEmitter(Emitter):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.bsdf.family import BSDFFamilies
 from brdflab.emitter.area import AreaLightSet
 from brdflab.math.frame import frame_from_normal, take_rows, to_local, to_world
 from brdflab.scene.geometry import Hits
@@ -52,8 +53,10 @@ class ShadingPoints:
     uv: np.ndarray
     wi: np.ndarray
     """(M, 3) local direction toward the camera."""
-    bsdf: np.ndarray
-    """(M,) BSDF index."""
+    family: np.ndarray
+    """(M,) material family index (:mod:`brdflab.bsdf.family`)."""
+    member: np.ndarray
+    """(M,) index of the point's material within its family."""
 
     def local(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
         """World directions → local shading frame (of the points ``sel``, default all)."""
@@ -94,8 +97,26 @@ def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> Shading
     ns = take_rows(hits.ns, idx)
     s, t = frame_from_normal(ns)
     wi = to_local(-take_rows(d, idx), s, t, ns)
+    mesh = np.take(hits.mesh, idx)
+    fams = bsdf_families(scene)
     return ShadingPoints(idx, take_rows(hits.p, idx), take_rows(hits.ng, idx), ns, s, t, take_rows(hits.uv, idx), wi,
-                         scene.mesh_bsdf[np.take(hits.mesh, idx)])
+                         np.take(fams.mesh_family, mesh), np.take(fams.mesh_member, mesh))
+
+
+def bsdf_families(scene) -> BSDFFamilies:
+    """The scene's :class:`~brdflab.bsdf.family.BSDFFamilies` (built once)."""
+    fams = scene.__dict__.get("_bsdf_families")
+    if fams is None:
+        fams = scene.__dict__["_bsdf_families"] = BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf)
+    return fams
+
+
+def bound_bsdfs(scene, sp: ShadingPoints):
+    """Yield (material, selector) per family present among the points ``sp`` (see :func:`by_group`)."""
+    families = bsdf_families(scene).families
+    for g, sel in by_group(sp.family):
+        fam = families[g]
+        yield fam.bind(rows(sp.member, sel) if fam.tables else None), sel
 
 
 def by_group(ids: np.ndarray):
@@ -139,12 +160,12 @@ def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False)
     """f(wi, wo) (M, 3) for local ``wo``; with ``with_pdf`` also the BSDF sampling density (M,)."""
     f = np.zeros((len(wo), 3), order="F")
     pdf = np.zeros(len(wo)) if with_pdf else None
-    for b, sel in by_group(sp.bsdf):
-        bsdf = scene.bsdfs[b]
+    for bsdf, sel in bound_bsdfs(scene, sp):
         wi_b, wo_b, uv_b = rows(sp.wi, sel), rows(wo, sel), rows(sp.uv, sel)
-        f[sel] = bsdf.eval(wi_b, wo_b, uv_b)
         if with_pdf:
-            pdf[sel] = bsdf.pdf(wi_b, wo_b, uv_b)
+            f[sel], pdf[sel] = bsdf.eval_pdf(wi_b, wo_b, uv_b)
+        else:
+            f[sel] = bsdf.eval(wi_b, wo_b, uv_b)
     return (f, pdf) if with_pdf else f
 
 
@@ -154,8 +175,8 @@ def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, n
     wo = np.zeros((m, 3), order="F")
     weight = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
-    for b, sel in by_group(sp.bsdf):
-        r = scene.bsdfs[b].sample(rows(sp.wi, sel), rows(u, sel), rows(sp.uv, sel))
+    for bsdf, sel in bound_bsdfs(scene, sp):
+        r = bsdf.sample(rows(sp.wi, sel), rows(u, sel), rows(sp.uv, sel))
         wo[sel], weight[sel], pdf[sel] = r.wo, r.weight, r.pdf
     return wo, weight, pdf
 
