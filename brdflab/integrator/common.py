@@ -78,42 +78,74 @@ def background(scene, d: np.ndarray) -> np.ndarray:
     return scene.environment.eval(d)
 
 
-def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, Hits, ShadingPoints]:
-    """Trace camera rays; apply the miss and emitter-hit rules; return (L, hits, shading points)."""
-    hits = scene.geometry.intersect(o, d, tmax)
+@dataclass
+class SceneTables:
+    """Per-scene lookups the integrators build once (see :func:`scene_tables`)."""
+
+    bsdf_families: BSDFFamilies
+    tri_emitter: np.ndarray
+    """(triangles + 1,) emitter index of each triangle's mesh, −1 for none; the extra last entry (−1) is
+    what a miss (primID −1) reads."""
+    bsdf_uv: bool
+    """True when some material has a texture, so shading points need their uvs."""
+
+
+def scene_tables(scene) -> SceneTables:
+    """The scene's :class:`SceneTables` (built on first use)."""
+    tab = scene.__dict__.get("_tables")
+    if tab is None:
+        tri_mesh = scene.geometry.tri_mesh
+        tri_emitter = np.append(np.asarray(scene.mesh_emitter, np.int64)[tri_mesh] if len(tri_mesh) else
+                                np.zeros(0, np.int64), -1)
+        bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
+        tab = SceneTables(BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf), tri_emitter, bsdf_uv)
+        scene.__dict__["_tables"] = tab
+    return tab
+
+
+def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, ShadingPoints]:
+    """Trace camera rays; apply the miss and emitter-hit rules; return (L, shading points).
+
+    Hit records are reconstructed only where they are used: at the shading points, and (normals and uvs)
+    at the few hits on emitters.
+    """
+    g = scene.geometry
+    tab = scene_tables(scene)
+    rh = g.trace(o, d, tmax)
     L = np.zeros((len(o), 3), order="F")
-    miss = np.flatnonzero(~hits.valid)
+    miss = np.flatnonzero(~rh.valid)
     if len(miss):
         L[miss] = background(scene, take_rows(d, miss))
-    em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
-    for e in np.unique(em[em >= 0]):
-        sel = np.flatnonzero(em == e)
-        L[sel] = scene.emitters[e].eval_hit(hits.ns[sel], hits.uv[sel], d[sel])
-    return L, hits, shading_points(scene, hits, d, np.flatnonzero(hits.valid & (em < 0)))
+    em = np.take(tab.tri_emitter, rh.prim)
+    lit = np.flatnonzero(em >= 0)
+    if len(lit):
+        h = g.surface(rh, lit, positions=False)
+        d_lit = take_rows(d, lit)
+        for e, sel in by_group(np.take(em, lit)):
+            L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
+    idx = np.flatnonzero(rh.valid & (em < 0))
+    return L, make_shading_points(scene, g.surface(rh, idx, uv=tab.bsdf_uv), take_rows(d, idx), idx)
 
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
     """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints`."""
-    ns = take_rows(hits.ns, idx)
-    s, t = frame_from_normal(ns)
-    wi = to_local(-take_rows(d, idx), s, t, ns)
-    mesh = np.take(hits.mesh, idx)
-    fams = bsdf_families(scene)
-    return ShadingPoints(idx, take_rows(hits.p, idx), take_rows(hits.ng, idx), ns, s, t, take_rows(hits.uv, idx), wi,
-                         np.take(fams.mesh_family, mesh), np.take(fams.mesh_member, mesh))
+    h = Hits(np.take(hits.valid, idx), np.take(hits.t, idx), take_rows(hits.p, idx), take_rows(hits.ng, idx),
+             take_rows(hits.ns, idx), take_rows(hits.uv, idx), np.take(hits.prim, idx), np.take(hits.mesh, idx))
+    return make_shading_points(scene, h, take_rows(d, idx), idx)
 
 
-def bsdf_families(scene) -> BSDFFamilies:
-    """The scene's :class:`~brdflab.bsdf.family.BSDFFamilies` (built once)."""
-    fams = scene.__dict__.get("_bsdf_families")
-    if fams is None:
-        fams = scene.__dict__["_bsdf_families"] = BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf)
-    return fams
+def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
+    """:class:`ShadingPoints` of the (already compacted) hits ``h`` of rays ``d``, camera indices ``idx``."""
+    s, t = frame_from_normal(h.ns)
+    wi = to_local(-d, s, t, h.ns)
+    fams = scene_tables(scene).bsdf_families
+    return ShadingPoints(idx, h.p, h.ng, h.ns, s, t, h.uv, wi, np.take(fams.mesh_family, h.mesh),
+                         np.take(fams.mesh_member, h.mesh))
 
 
 def bound_bsdfs(scene, sp: ShadingPoints):
     """Yield (material, selector) per family present among the points ``sp`` (see :func:`by_group`)."""
-    families = bsdf_families(scene).families
+    families = scene_tables(scene).bsdf_families.families
     for g, sel in by_group(sp.family):
         fam = families[g]
         yield fam.bind(rows(sp.member, sel) if fam.tables else None), sel
@@ -146,9 +178,12 @@ def by_group(ids: np.ndarray):
             yield g, chunk
 
 
-def rows(a: np.ndarray, sel) -> np.ndarray:
-    """``a[sel]`` for a :func:`by_group` selector: the array itself for ``slice(None)``, else a gather."""
-    return a if isinstance(sel, slice) else take_rows(a, sel) if a.ndim == 2 else np.take(a, sel)
+def rows(a: np.ndarray | None, sel) -> np.ndarray | None:
+    """``a[sel]`` for a :func:`by_group` selector: the array itself for ``slice(None)``, else a gather
+    (None stays None)."""
+    if a is None or isinstance(sel, slice):
+        return a
+    return take_rows(a, sel) if a.ndim == 2 else np.take(a, sel)
 
 
 def any_positive(rgb: np.ndarray) -> np.ndarray:
@@ -251,26 +286,28 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     solid-angle density with which *light sampling* would have produced that direction (selection
     probability included), for MIS."""
     g = scene.geometry
-    hits = g.intersect(o, d, positions=False)
+    rh = g.trace(o, d)
     m = len(o)
     Le = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
-    em = np.where(hits.valid, scene.mesh_emitter[np.maximum(hits.mesh, 0)], -1)
+    em = np.take(scene_tables(scene).tri_emitter, rh.prim)
+    hit = np.flatnonzero(em >= 0)
     fused = area_light_set(scene)
-    if fused is not None:
-        hit = np.flatnonzero(em >= 0)
-        if len(hit):
-            Le[hit], pdf[hit] = fused.eval_pdf_hit(np.take(em, hit), np.take(hits.t, hit), take_rows(hits.ns, hit),
-                                                   take_rows(d, hit))
-        return Le, pdf
-    for e, sel in by_group(em):
-        emitter = scene.emitters[e]
-        ns, d_e = rows(hits.ns, sel), rows(d, sel)
-        Le[sel] = emitter.eval_hit(ns, rows(hits.uv, sel), d_e)
-        pdf[sel] = emitter.pdf_hit(rows(hits.t, sel), ns, d_e) * scene.emitter_pmf[e]
+    if len(hit):
+        # Only the rays that found an emitter need their hit's normal (and uv, for textured emitters).
+        h = g.surface(rh, hit, positions=False, uv=fused is None)
+        em_hit, d_hit = np.take(em, hit), take_rows(d, hit)
+        if fused is not None:
+            Le[hit], pdf[hit] = fused.eval_pdf_hit(em_hit, h.t, h.ns, d_hit)
+        else:
+            for e, sel in by_group(em_hit):
+                emitter, at = scene.emitters[e], rows(hit, sel)
+                ns, d_e = rows(h.ns, sel), rows(d_hit, sel)
+                Le[at] = emitter.eval_hit(ns, rows(h.uv, sel), d_e)
+                pdf[at] = emitter.pdf_hit(rows(h.t, sel), ns, d_e) * scene.emitter_pmf[e]
     env = scene.environment
     if env is not None:
-        miss = np.flatnonzero(~hits.valid)
+        miss = np.flatnonzero(~rh.valid)
         if len(miss):
             Le_env, pdf_env = env.eval_pdf(take_rows(d, miss))
             Le[miss] = Le_env
@@ -278,5 +315,6 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     return Le, pdf
 
 
-__all__ = ["Integrator", "ShadingPoints", "LightSamples", "background", "trace_camera", "shading_points", "by_group",
-           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]
+__all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
+           "shading_points", "make_shading_points", "scene_tables", "by_group", "any_positive", "rows", "eval_bsdfs",
+           "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]

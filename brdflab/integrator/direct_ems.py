@@ -24,7 +24,7 @@ class DirectEMS(Integrator):
 
     def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
         """Radiance along camera rays (see module docstring)."""
-        L, _, sp = trace_camera(scene, o, d, tmax)
+        L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0 or not scene.emitters:
             return L
         ls = sample_lights(scene, sp, rng.random((len(sp.index), 4)))

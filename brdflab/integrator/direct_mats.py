@@ -45,7 +45,7 @@ class DirectMATS(Integrator):
 
     def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
         """Radiance along camera rays (see module docstring)."""
-        L, _, sp = trace_camera(scene, o, d, tmax)
+        L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0:
             return L
         live, weight, _, Le, _ = bsdf_rays(scene, sp, rng.random((len(sp.index), 3)))

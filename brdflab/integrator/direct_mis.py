@@ -56,7 +56,7 @@ class DirectMIS(Integrator):
 
     def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
         """Radiance along camera rays (see module docstring)."""
-        L, _, sp = trace_camera(scene, o, d, tmax)
+        L, sp = trace_camera(scene, o, d, tmax)
         m = len(sp.index)
         if m == 0:
             return L

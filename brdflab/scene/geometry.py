@@ -41,12 +41,29 @@ class Hits:
     """(N, 3) unit geometric normal (winding order, after toWorld)."""
     ns: np.ndarray
     """(N, 3) unit shading normal (interpolated vertex normals, else ng)."""
-    uv: np.ndarray
-    """(N, 2) texture coordinates (the barycentric pair (u, v) when the mesh has no vt)."""
+    uv: np.ndarray | None
+    """(N, 2) texture coordinates (the barycentric pair (u, v) when the mesh has no vt); None when the
+    caller did not ask for them."""
     prim: np.ndarray
     """(N,) global triangle index (−1 for misses)."""
     mesh: np.ndarray
     """(N,) mesh index (−1 for misses)."""
+
+
+@dataclass
+class RayHits:
+    """What Embree returns for N rays, before any reconstruction (:meth:`Geometry.trace`)."""
+
+    valid: np.ndarray
+    """(N,) bool, True where the ray hit a triangle."""
+    prim: np.ndarray
+    """(N,) global triangle index (−1 for misses)."""
+    u: np.ndarray
+    """(N,) float32 barycentric u."""
+    v: np.ndarray
+    """(N,) float32 barycentric v."""
+    t: np.ndarray
+    """(N,) float32 hit distance."""
 
 
 class RayStats:
@@ -134,37 +151,51 @@ class Geometry:
         return len(self.faces)
 
     # -- queries --------------------------------------------------------------------------------
-    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None,
-                  positions: bool = True) -> Hits:
-        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length).
-
-        With ``positions=False`` the hit positions (and, where shading normals come from vertex
-        normals, the geometric normals) are not reconstructed: ``p`` (and ``ng``) are ``None``. Rays that
-        only look for emitters need ``t``, ``ns``, ``uv`` and ``mesh``.
-        """
+    def trace(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None) -> RayHits:
+        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length), before any reconstruction."""
         n = len(o)
         if n == 0 or not len(self.faces):
-            z3 = np.zeros((n, 3))
-            return Hits(np.zeros(n, bool), np.full(n, np.inf), z3, z3, z3, np.zeros((n, 2)),
-                        np.full(n, -1), np.full(n, -1))
+            z = np.zeros(n, np.float32)
+            return RayHits(np.zeros(n, bool), np.full(n, -1, np.int64), z, z, np.full(n, np.inf, np.float32))
         dists = None if tmax is None else np.broadcast_to(np.asarray(tmax, np.float32), (n,)).copy()
         o32, d32 = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
         t0 = time.perf_counter()  # only the embreex call counts as time in Embree
         r = self._scene.run(o32, d32, dists=dists, output=1)
         self.stats.add(n, time.perf_counter() - t0)
         prim = r["primID"].astype(np.int64)
-        valid = prim >= 0
-        return self.hit_records(valid, prim, r["u"].astype(np.float64), r["v"].astype(np.float64),
-                                r["tfar"].astype(np.float64), positions)
+        return RayHits(prim >= 0, prim, r["u"], r["v"], r["tfar"])
+
+    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | float | None = None,
+                  positions: bool = True) -> Hits:
+        """Closest hits of rays o + t·d, 0 ≤ t ≤ tmax (d unit length), all reconstructed.
+
+        With ``positions=False`` the hit positions (and, where shading normals come from vertex
+        normals, the geometric normals) are not reconstructed: ``p`` (and ``ng``) are ``None``.
+        """
+        n = len(o)
+        if n == 0 or not len(self.faces):
+            z3 = np.zeros((n, 3))
+            return Hits(np.zeros(n, bool), np.full(n, np.inf), z3, z3, z3, np.zeros((n, 2)),
+                        np.full(n, -1), np.full(n, -1))
+        rh = self.trace(o, d, tmax)
+        return self.hit_records(rh.valid, rh.prim, rh.u.astype(np.float64), rh.v.astype(np.float64),
+                                rh.t.astype(np.float64), positions)
+
+    def surface(self, rh: RayHits, idx: np.ndarray, positions: bool = True, uv: bool = True) -> Hits:
+        """Reconstruct the hits ``idx`` (all valid) of a :meth:`trace`; with ``uv=False``, ``uv`` is None."""
+        return self.hit_records(np.ones(len(idx), bool), np.take(rh.prim, idx), np.take(rh.u, idx).astype(np.float64),
+                                np.take(rh.v, idx).astype(np.float64), np.take(rh.t, idx).astype(np.float64),
+                                positions, uv, all_valid=True)
 
     def hit_records(self, valid: np.ndarray, prim: np.ndarray, bu: np.ndarray, bv: np.ndarray,
-                    t: np.ndarray, positions: bool = True) -> Hits:
+                    t: np.ndarray, positions: bool = True, uv: bool = True, all_valid: bool = False) -> Hits:
         """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2).
 
         With barycentrics (1 − u − v, u, v): p = p0 + u(p1 − p0) + v(p2 − p0), likewise for normals
-        (then renormalised) and uvs.
+        (then renormalised) and uvs. ``uv=False`` skips the uvs (None); ``all_valid`` promises that every
+        entry is a hit.
         """
-        pr = np.where(valid, prim, 0)
+        pr = prim if all_valid else np.where(valid, prim, 0)
         n = len(pr)
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
@@ -193,7 +224,12 @@ class Geometry:
                 ns[bad] = fn
         else:
             ns = ng
-        uv = interp(self.tri_uv, 2) if self.tri_uv is not None else stack_cols(bu, bv)
+        if not uv:
+            uv = None
+        else:
+            uv = interp(self.tri_uv, 2) if self.tri_uv is not None else stack_cols(bu, bv)
+        if all_valid:
+            return Hits(valid, t, p, ng, ns, uv, prim, np.take(self.tri_mesh, pr))
         mesh = np.where(valid, np.take(self.tri_mesh, pr), -1)
         return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
 
