@@ -10,7 +10,8 @@ parameter      tag                                       default    meaning
 Emission: L_e(y → x) = radiance(uv)·scale if n_l·(y − x) < 0, else 0, with n_l the **shading** normal
 at y (interpolated ``vn``, renormalised; else the winding normal).
 
-Sampling: a triangle with probability A_k / A (``np.searchsorted`` on the cumulative areas), a uniform
+Sampling: a triangle with probability A_k / A (:class:`DiscreteChooser`: CDF inversion, or Walker's alias
+method for more than 8 triangles), a uniform
 point in it by the folding warp with barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2), area density 1/A, converted to
 solid angle at the receiver x: p_ω = ‖y − x‖² / (A |n_l·ω|) (PBR eq. 13.x, change of variables dω =
 |cos θ_l| dA / r²).
@@ -21,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.emitter.base import Emitter, EmitterSample
+from brdflab.math.distribution import AliasTable
 from brdflab.math.frame import dot
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import LUMINANCE, Texture, as_texture
@@ -69,7 +71,7 @@ class AreaEmitter(Emitter):
         self.tris = np.flatnonzero(geometry.tri_mesh == mesh_index)
         areas = geometry.tri_area[self.tris]
         self.area = float(areas.sum())
-        self.cdf = np.cumsum(areas) / self.area if self.area > 0 else None
+        self.chooser = DiscreteChooser(areas) if self.area > 0 else None
         tris = self.tris
         self._pos = np.ascontiguousarray(geometry.tri_pos[:, tris])
         self._face_n = np.ascontiguousarray(geometry.face_normals_t[:, tris])
@@ -82,8 +84,8 @@ class AreaEmitter(Emitter):
                     else np.array([[0.0], [0.0], [1.0], [0.0], [0.0], [1.0]]).repeat(len(tris), axis=1))
 
     def _choose_triangles(self, u: np.ndarray) -> np.ndarray:
-        """Triangle index (into the emitter's own list) with probability A_k / A, by CDF inversion."""
-        return invert_cdf(self.cdf, u)
+        """Triangle index (into the emitter's own list) with probability A_k / A."""
+        return self.chooser.sample(u)
 
     def le(self, uv: np.ndarray) -> np.ndarray:
         """Radiance (N, 3) emitted toward the front side at surface coordinates ``uv``."""
@@ -127,6 +129,26 @@ class AreaEmitter(Emitter):
     def power(self) -> float:
         """Luminance of the mean radiance times the area (spec §8)."""
         return float(LUMINANCE @ (self.radiance.mean() * self.scale)) * self.area * np.pi
+
+
+class DiscreteChooser:
+    """Index k with probability weights[k] / Σ weights, for one uniform each.
+
+    Up to 8 outcomes: CDF inversion by counting the CDF entries ≤ u (:func:`invert_cdf`); more: Walker's
+    alias method (:class:`~brdflab.math.distribution.AliasTable`), O(1) per sample where a binary search
+    over thousands of light triangles cost 67 ns.
+    """
+
+    def __init__(self, weights: np.ndarray) -> None:
+        w = np.asarray(weights, dtype=np.float64)
+        self.pmf = w / w.sum()
+        self.cdf = np.cumsum(self.pmf)
+        self.cdf[-1] = 1.0
+        self.alias = AliasTable(w) if len(w) > 8 else None
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        """Indices (N,) for uniforms ``u`` (N,) in [0, 1)."""
+        return self.alias.sample(u) if self.alias is not None else invert_cdf(self.cdf, u)
 
 
 def invert_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -228,9 +250,7 @@ class AreaLightSet:
         self._emitter_radiance = np.stack([e.radiance.value * e.scale for e in emitters], axis=1)
         self._emitter_pdf_scale = np.array([p_e / e.area for e, p_e in zip(emitters, pmf, strict=True)])
         self._pdf_scale = np.concatenate(scale)
-        prob = np.concatenate(prob)
-        self.cdf = np.cumsum(prob) / prob.sum()
-        self.cdf[-1] = 1.0
+        self.chooser = DiscreteChooser(np.concatenate(prob))
 
     @staticmethod
     def applies(emitters: list) -> bool:
@@ -244,7 +264,7 @@ class AreaLightSet:
         The returned pdf **includes** the selection probability.
         """
         n = len(u)
-        k = invert_cdf(self.cdf, u[:, 0])
+        k = self.chooser.sample(u[:, 0])
         wi, dist, dist2, cos_l, _, _ = sample_triangle_points(self._pos, self._face_n, self._nrm, k, u[:, 1:3], ref_p)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             pdf = dist2 * np.take(self._pdf_scale, k) / cos_l

@@ -1,0 +1,106 @@
+"""The fast paths of the render loop give the same answers as the plain ones.
+
+* Walker's alias table (light-triangle choice) samples its pmf: chi-square over the outcomes, and a
+  table built from the wrong weights is rejected.
+* Material families (one batched call per material type) reproduce the per-material evaluation.
+* Forked workers give the image of one in-process worker, bit for bit, and count the rays they trace.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from brdflab.bsdf.diffuse import Diffuse
+from brdflab.bsdf.family import BSDFFamilies
+from brdflab.bsdf.roughconductor import RoughConductor
+from brdflab.bsdf.roughsubstrate import RoughSubstrate
+from brdflab.emitter.area import DiscreteChooser
+from brdflab.math.distribution import AliasTable
+from brdflab.render import render
+from brdflab.scene.loader import load_scene
+from brdflab.texture import CheckerTexture
+from tests.conftest import ROOT
+
+
+def _chi2_p(idx: np.ndarray, pmf: np.ndarray) -> float:
+    counts = np.bincount(idx, minlength=len(pmf))
+    expected = pmf * len(idx)
+    assert counts[expected == 0].sum() == 0, "an outcome of probability 0 was drawn"
+    keep = expected > 0
+    return float(stats.chisquare(counts[keep], expected[keep]).pvalue)
+
+
+@pytest.mark.parametrize("n", [9, 100, 3840])
+def test_alias_table_samples_its_pmf(n):
+    rng = np.random.default_rng(n)
+    w = rng.random(n) ** 3
+    w[::7] = 0.0  # zero-weight outcomes must never be drawn
+    table = AliasTable(w)
+    idx = table.sample(rng.random(400_000))
+    assert idx.min() >= 0 and idx.max() < n
+    assert _chi2_p(idx, w / w.sum()) > 1e-4
+    # Negative control: the same samples against a slightly different pmf are rejected.
+    wrong = w.copy()
+    wrong[: n // 2] *= 1.2
+    assert _chi2_p(idx, wrong / wrong.sum()) < 1e-6
+    # Edge of the unit interval.
+    assert 0 <= table.sample(np.array([0.0, np.nextafter(1.0, 0.0)])).max() < n
+
+
+def test_discrete_chooser_small_and_large_agree_in_distribution():
+    rng = np.random.default_rng(3)
+    for w in (np.array([1.0, 2.0, 0.0, 5.0]), rng.random(50)):
+        ch = DiscreteChooser(w)
+        assert (ch.alias is None) == (len(w) <= 8)
+        assert _chi2_p(ch.sample(rng.random(200_000)), w / w.sum()) > 1e-4
+
+
+def test_families_group_materials_that_differ_in_constants_only():
+    bsdfs = [Diffuse([0.7, 0.1, 0.1]), RoughSubstrate(0.2, 0.3), Diffuse(0.5), RoughSubstrate([0.1, 0.2, 0.3], 0.01),
+             RoughSubstrate(0.2, 0.3, int_ior=1.33), Diffuse(CheckerTexture()), RoughConductor(0.9, 0.1)]
+    fams = BSDFFamilies.build(bsdfs, np.arange(len(bsdfs)))
+    f = fams.mesh_family
+    assert f[0] == f[2] and f[1] == f[3]  # same class, same IORs
+    assert len({f[1], f[4]}) == 2  # other IOR
+    assert f[5] not in (f[0], f[1], f[4], f[6])  # a textured material is on its own
+    assert len(fams.families) == 5
+
+
+@pytest.mark.parametrize("kind", ["diffuse", "roughsubstrate", "roughconductor"])
+def test_family_evaluation_matches_each_member(kind):
+    rng = np.random.default_rng(7)
+    make = {"diffuse": lambda k: Diffuse(rng.random(3)),
+            "roughsubstrate": lambda k: RoughSubstrate(rng.random(3), [0.3, 0.05, 0.001][k]),
+            "roughconductor": lambda k: RoughConductor(rng.random(3), [0.3, 0.05, 0.001][k])}[kind]
+    members = [make(k) for k in range(3)]
+    fams = BSDFFamilies.build(members, np.arange(3))
+    assert len(fams.families) == 1
+    n = 3000
+    member = rng.integers(0, 3, n)
+    wi = rng.normal(size=(n, 3))
+    wi /= np.linalg.norm(wi, axis=1)[:, None]
+    wi[:, 2] = np.abs(wi[:, 2])
+    u = rng.random((n, 3))
+    bound = fams.families[0].bind(member)
+    fused = bound.sample(wi, u)
+    f_fused, p_fused = bound.eval_pdf(wi, fused.wo)
+    for k, m in enumerate(members):
+        sel = member == k
+        alone = m.sample(wi[sel], u[sel])
+        np.testing.assert_array_equal(fused.wo[sel], alone.wo)
+        np.testing.assert_array_equal(fused.weight[sel], alone.weight)
+        np.testing.assert_array_equal(fused.pdf[sel], alone.pdf)
+        np.testing.assert_array_equal(f_fused[sel], m.eval(wi[sel], fused.wo[sel]))
+        np.testing.assert_array_equal(p_fused[sel], m.pdf(wi[sel], fused.wo[sel]))
+
+
+def test_forked_workers_match_one_worker_and_count_rays():
+    s = load_scene(ROOT / "scenes/veach/veach_mis.xml")
+    s.camera.width, s.camera.height = 96, 64
+    a, sa = render(s, spp=8, seed=2, workers=1)
+    b, sb = render(s, spp=8, seed=2, workers=2)
+    np.testing.assert_array_equal(a, b)
+    assert sa.rays == sb.rays > 0
+    assert sb.ray_seconds > 0
