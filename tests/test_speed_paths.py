@@ -104,3 +104,24 @@ def test_forked_workers_match_one_worker_and_count_rays():
     np.testing.assert_array_equal(a, b)
     assert sa.rays == sb.rays > 0
     assert sb.ray_seconds > 0
+
+
+def test_distribution2d_alias_sampling_is_uniform_within_cells():
+    from brdflab.math.distribution import Distribution2D
+
+    rng = np.random.default_rng(11)
+    w = rng.random((6, 10)) ** 2
+    w[2, 3] = 0.0
+    dist = Distribution2D(w)
+    pts, dens = dist.sample(rng.random((600_000, 2)))
+    assert np.all((pts[:, 0] >= 0) & (pts[:, 0] < 10) & (pts[:, 1] >= 0) & (pts[:, 1] < 6))
+    np.testing.assert_allclose(dens, dist.pdf(pts))
+    # 4 × 4 sub-bins per cell: the density is constant inside a cell, so each sub-bin expects 1/16 of it.
+    sub = 4
+    bins = (np.floor(pts[:, 1] * sub).astype(int) * (10 * sub) + np.floor(pts[:, 0] * sub).astype(int))
+    expected = np.repeat(np.repeat(dist.density, sub, axis=0), sub, axis=1).ravel() / sub**2
+    assert _chi2_p(bins, expected) > 1e-4
+    # Negative control: a density that is not uniform inside the cells (a ramp in x) is rejected.
+    ramp = np.tile(np.linspace(0.7, 1.3, sub), 6 * 10 * sub)
+    wrong = expected * ramp
+    assert _chi2_p(bins, wrong / wrong.sum()) < 1e-6

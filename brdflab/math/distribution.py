@@ -1,11 +1,12 @@
 """Piecewise-constant 1-D and 2-D distributions for importance sampling (PBR §13.6.5 and §13.6.7).
 
 ``Distribution2D`` over an H × W grid of non-negative cell weights w(r, c) on the domain
-[0, W) × [0, H) (x = column, y = row): the marginal picks a row with probability Σ_c w(r, c) / Σ w,
-the conditional a column in it with probability w(r, c) / Σ_c w(r, c); the point is uniform inside the
-cell, so its density is p(x, y) = w(r, c) / Σ w per unit area. Sampling is vectorised with
-``np.searchsorted`` on the cumulative sums; the uniforms are reused (rescaled) for the position inside
-the chosen cell, which keeps stratification. All-zero weights fall back to the uniform distribution.
+[0, W) × [0, H) (x = column, y = row): a cell is picked with probability w(r, c) / Σ w (the product of
+the row marginal Σ_c w(r, c) / Σ w and the conditional w(r, c) / Σ_c w(r, c)); the point is uniform inside
+the cell, so its density is p(x, y) = w(r, c) / Σ w per unit area. ``Distribution1D`` samples by
+``np.searchsorted`` on the cumulative sums, ``Distribution2D`` by Walker's alias method over all cells
+(:class:`AliasTable`); the uniforms are reused (rescaled) for the position inside the chosen cell. All-zero
+weights fall back to the uniform distribution.
 """
 
 from __future__ import annotations
@@ -110,33 +111,33 @@ class Distribution2D:
             w = np.ones_like(w)
         self.h, self.w = w.shape
         self.density = w / w.sum()  # probability of each cell = density per unit area (cells are 1 × 1)
-        self.marginal = Distribution1D(w.sum(axis=1))
-        rows = w.sum(axis=1, keepdims=True)
-        cond = np.where(rows > 0, w / np.where(rows > 0, rows, 1.0), 1.0 / self.w)
-        self.cond_pmf = cond
-        cdf = np.concatenate([np.zeros((self.h, 1)), np.cumsum(cond, axis=1)], axis=1)
-        cdf[:, -1] = 1.0
-        self.cond_cdf = cdf
-        # Row-offset CDF so that one searchsorted finds the column within each sample's own row.
-        self._flat = (cdf[:, :-1] + np.arange(self.h)[:, None]).ravel()
-        # Flat copies for 1-D gathers at index row·W + column.
-        self._cond_pmf_flat = cond.ravel()
-        self._cond_lo_flat = np.ascontiguousarray(cdf[:, :-1]).ravel()
+        # Flat copy for 1-D gathers at index row·W + column.
         self._density_flat = self.density.ravel()
+        self._alias = AliasTable(self._density_flat)
 
     def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Sample points (N, 2) = (x, y) for uniforms (N, 2); return (points, density per unit area)."""
-        row, y, _ = self.marginal.sample(u[:, 1])
-        flat = np.searchsorted(self._flat, row + u[:, 0], side="right") - 1
-        col = np.clip(flat - row * self.w, 0, self.w - 1)
-        cell = row * self.w + col
-        p = np.take(self._cond_pmf_flat, cell)
-        lo = np.take(self._cond_lo_flat, cell)
+        """Sample points (N, 2) = (x, y) for uniforms (N, 2); return (points, density per unit area).
+
+        The cell comes from an alias table over all cells (probability density(r, c)), driven by
+        ``u[:, 0]``; the part of that uniform left after choosing the column and flipping its coin is
+        again uniform and places x in the cell, ``u[:, 1]`` places y. (Two binary searches, over the
+        rows and within the row, cost 3–4× as much.)
+        """
+        t = self._alias
+        x = u[:, 0] * t.n
+        k = x.astype(np.intp)
+        np.minimum(k, t.n - 1, out=k)
+        x -= k
+        q = np.take(t.q, k)
+        keep = x < q
+        cell = np.where(keep, k, np.take(t.alias, k))
         with np.errstate(divide="ignore", invalid="ignore"):
-            off = np.where(p > 0, (u[:, 0] - lo) / p, 0.5)
+            off = np.where(keep, x / q, (x - q) / (1.0 - q))
+        np.clip(off, 0.0, np.nextafter(1.0, 0.0), out=off)
+        row, col = np.divmod(cell, self.w)
         pts = np.empty((len(u), 2), order="F")
-        pts[:, 0] = col + np.clip(off, 0.0, np.nextafter(1.0, 0.0))
-        pts[:, 1] = y
+        pts[:, 0] = col + off
+        pts[:, 1] = row + np.minimum(u[:, 1], np.nextafter(1.0, 0.0))
         return pts, np.take(self._density_flat, cell)
 
     def pdf(self, pts: np.ndarray) -> np.ndarray:
