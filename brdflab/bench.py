@@ -45,6 +45,9 @@ class BenchResult:
     load_seconds: float
     runs: list[dict] = field(default_factory=list)
     peak_rss_bytes: int = 0
+    """Peak resident memory of the main process."""
+    worker_peak_rss_bytes: int = 0
+    """Peak resident memory of the largest forked worker (0 with one worker)."""
     bytes_per_triangle: float = 0.0
 
     def median(self, key: str) -> float:
@@ -103,7 +106,10 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
         res.runs.append({"seconds": st.seconds, "samples_per_s": st.samples_per_second,
                          "rays_per_s": st.rays_per_second, "embree_share": st.embree_share,
                          "ray_seconds": st.ray_seconds, "workers": st.workers})
+    # Forked workers share the scene with this process copy-on-write; their peak (which counts the shared
+    # pages too) is the largest of any one process.
     res.peak_rss_bytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    res.worker_peak_rss_bytes = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
     res.bytes_per_triangle = (rss_loaded - rss0) / tris if tris else 0.0
     return res
 

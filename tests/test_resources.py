@@ -26,6 +26,8 @@ def test_million_triangles_within_budget():
     assert one["triangles"] >= 1_000_000
     assert one["load_seconds"] < 10.0
     assert one["peak_rss_bytes"] < PEAK_BUDGET_BYTES, one["peak_rss_bytes"] / 2**20
+    assert one["worker_peak_rss_bytes"] < PEAK_BUDGET_BYTES, one["worker_peak_rss_bytes"] / 2**20
     four = _run(4)
     # Four times the samples, (almost) the same peak: work units have a fixed size.
     assert four["peak_rss_bytes"] < one["peak_rss_bytes"] * 1.15 + 64 * 2**20
+    assert four["worker_peak_rss_bytes"] < one["worker_peak_rss_bytes"] * 1.15 + 64 * 2**20
