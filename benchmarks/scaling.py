@@ -6,7 +6,7 @@ Usage (brdflab's environment active)::
 
 * Triangles: displaced spheres of about 10 k, 30 k, 100 k, 300 k and 1 M triangles under a point light
   (800×600, ``direct_ems``), each loaded (OBJ parse + BVH build) and rendered in a fresh process.
-* Workers: every bench case of ``brdflab bench`` with 1 and with 2 worker threads.
+* Workers: every bench case of ``brdflab bench`` with 1 and with 2 workers (forked processes).
 
 Each measurement is the median of ``--runs`` renders. Writes ``docs/scaling.png`` (two panels) and
 ``benchmarks/results/scaling.json`` and prints Markdown tables for the README.
@@ -117,7 +117,7 @@ def _plot(tri_rows: list[dict], worker_rows: list[dict], out: Path, spp: int) ->
     ax2.set_xticks(list(x), labels, fontsize=7)
     ax2.set_ylabel("M samples/s")
     ax2.set_ylim(0, 1.25 * max(r["two"] for r in worker_rows) / 1e6)
-    ax2.set_title("Workers (threads)")
+    ax2.set_title("Workers (forked processes)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)

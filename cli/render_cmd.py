@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scene", type=Path, help="Nori scene XML file")
     p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's sampleCount)")
     p.add_argument("--seed", type=int, help="random seed (default: the scene's seed, else 0)")
-    p.add_argument("--workers", type=int, help="worker threads (default: all cores)")
+    p.add_argument("--workers", type=int, help="worker processes (default: all cores)")
     p.add_argument("--integrator", help="override the scene's integrator (normals, direct_ems, direct_mats, "
                    "direct_mis, direct_whitted)")
     p.add_argument("--emitter-selection", choices=("uniform", "power"), default="uniform",

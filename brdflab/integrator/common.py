@@ -186,6 +186,17 @@ def rows(a: np.ndarray | None, sel) -> np.ndarray | None:
     return take_rows(a, sel) if a.ndim == 2 else np.take(a, sel)
 
 
+def accumulate(L: np.ndarray, idx: np.ndarray, a: np.ndarray, b: np.ndarray, scale: np.ndarray | None = None) -> None:
+    """``L[idx] += a · b · scale[:, None]`` channel by channel (1-D gathers and products, no (M, 3)
+    temporaries); ``idx`` holds distinct rows."""
+    for j in range(3):
+        c = a[:, j] * b[:, j]
+        if scale is not None:
+            c *= scale
+        col = L[:, j]
+        col[idx] = np.take(col, idx) + c
+
+
 def any_positive(rgb: np.ndarray) -> np.ndarray:
     """True where any of the three channels is > 0 (column-wise: faster than a reduction over axis 1)."""
     return (rgb[:, 0] > 0) | (rgb[:, 1] > 0) | (rgb[:, 2] > 0)
@@ -218,16 +229,19 @@ def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, n
 
 @dataclass
 class LightSamples:
-    """One emitter sample per shading point, visibility already tested."""
+    """One emitter sample per shading point, **before** the visibility test (:func:`add_light_samples`
+    traces shadow rays only for the samples that would contribute)."""
 
     wi: np.ndarray
     """(M, 3) world direction toward the light."""
     radiance: np.ndarray
-    """(M, 3) incident radiance, 0 where occluded or invalid."""
+    """(M, 3) emitted radiance toward the point, 0 where the sample is invalid."""
     pdf: np.ndarray
     """(M,) solid-angle pdf **including** the selection probability (1·p_sel for delta lights)."""
     delta: np.ndarray
     """(M,) True for delta (point) lights."""
+    dist: np.ndarray
+    """(M,) distance to the light point (inf for the environment)."""
 
 
 def choose_emitters(scene, u: np.ndarray) -> np.ndarray:
@@ -250,7 +264,7 @@ def area_light_set(scene) -> AreaLightSet | None:
 
 
 def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
-    """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]``; trace shadow rays."""
+    """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]`` (no shadow rays yet)."""
     m = len(sp.p)
     wi = np.zeros((m, 3), order="F")
     wi[:, 2] = 1.0
@@ -259,7 +273,7 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     dist = np.zeros(m)
     delta = np.zeros(m, bool)
     if m == 0 or not scene.emitters:
-        return LightSamples(wi, radiance, pdf, delta)
+        return LightSamples(wi, radiance, pdf, delta, dist)
     fused = area_light_set(scene)
     if fused is not None:
         wi, dist, radiance, pdf = fused.sample(sp.p, u)
@@ -271,14 +285,24 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
             wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
             pdf[sel] = r.pdf * scene.emitter_pmf[e]
             delta[sel] = em.is_delta
-    live = np.flatnonzero((pdf > 0) & any_positive(radiance))
-    if len(live):
-        g = scene.geometry
-        wl = take_rows(wi, live)
-        o = g.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), wl)
-        blocked = g.occluded(o, wl, g.shadow_tmax(dist[live]))
-        radiance[live[blocked]] = 0.0
-    return LightSamples(wi, radiance, pdf, delta)
+    return LightSamples(wi, radiance, pdf, delta, dist)
+
+
+def add_light_samples(scene, L: np.ndarray, sp: ShadingPoints, ls: LightSamples, f: np.ndarray,
+                      scale: np.ndarray) -> None:
+    """``L[camera ray] += L_e · f · scale`` for the light samples that are not occluded.
+
+    Shadow rays are traced only where the product is positive: a light below the surface's horizon
+    (cos θ = 0), an invalid sample or a zero BSDF value needs no visibility test.
+    """
+    live = np.flatnonzero((scale > 0) & any_positive(ls.radiance) & any_positive(f))
+    if len(live) == 0:
+        return
+    g = scene.geometry
+    wl = take_rows(ls.wi, live)
+    o = g.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), wl)
+    vis = live[~g.occluded(o, wl, g.shadow_tmax(np.take(ls.dist, live)))]
+    accumulate(L, np.take(sp.index, vis), take_rows(ls.radiance, vis), take_rows(f, vis), np.take(scale, vis))
 
 
 def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -316,5 +340,5 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
-           "shading_points", "make_shading_points", "scene_tables", "by_group", "any_positive", "rows", "eval_bsdfs",
-           "sample_bsdfs", "sample_lights", "emission_along", "choose_emitters"]
+           "shading_points", "make_shading_points", "scene_tables", "by_group", "accumulate", "any_positive", "rows",
+           "eval_bsdfs", "sample_bsdfs", "sample_lights", "add_light_samples", "emission_along", "choose_emitters"]

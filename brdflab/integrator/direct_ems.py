@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, eval_bsdfs, sample_lights, trace_camera
+from brdflab.integrator.common import Integrator, add_light_samples, eval_bsdfs, sample_lights, trace_camera
 
 
 class DirectEMS(Integrator):
@@ -32,5 +32,5 @@ class DirectEMS(Integrator):
         f = eval_bsdfs(scene, sp, wo)
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
-        L[sp.index] += ls.radiance * f * scale[:, None]
+        add_light_samples(scene, L, sp, ls, f, scale)
         return L

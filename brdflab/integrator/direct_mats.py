@@ -15,7 +15,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, any_positive, emission_along, sample_bsdfs, trace_camera
+from brdflab.integrator.common import (
+    Integrator,
+    accumulate,
+    any_positive,
+    emission_along,
+    sample_bsdfs,
+    trace_camera,
+)
 from brdflab.math.frame import take_rows
 
 
@@ -49,5 +56,5 @@ class DirectMATS(Integrator):
         if len(sp.index) == 0:
             return L
         live, weight, _, Le, _ = bsdf_rays(scene, sp, rng.random((len(sp.index), 3)))
-        L[sp.index[live]] += weight * Le
+        accumulate(L, sp.index[live], weight, Le)
         return L

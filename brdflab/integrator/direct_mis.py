@@ -21,7 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, eval_bsdfs, sample_lights, trace_camera
+from brdflab.integrator.common import (
+    Integrator,
+    accumulate,
+    add_light_samples,
+    eval_bsdfs,
+    sample_lights,
+    trace_camera,
+)
 from brdflab.integrator.direct_mats import bsdf_rays
 from brdflab.scene.properties import PropertyList
 
@@ -68,7 +75,7 @@ class DirectMIS(Integrator):
             w = np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta))
             with np.errstate(divide="ignore", invalid="ignore"):
                 scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) * w / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
-            L[sp.index] += ls.radiance * f * scale[:, None]
+            add_light_samples(scene, L, sp, ls, f, scale)
         live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, 4:7])
-        L[sp.index[live]] += weight * Le * mis_weight(p_b, p_l, self.beta)[:, None]
+        accumulate(L, sp.index[live], weight, Le, mis_weight(p_b, p_l, self.beta))
         return L

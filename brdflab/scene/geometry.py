@@ -249,7 +249,11 @@ class Geometry:
     def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray) -> np.ndarray:
         """Move ``p`` off its surface along ±n_g, to the side ``d`` leaves toward."""
         side = np.where(dot(ng, d) >= 0, self.eps, -self.eps)
-        return p + ng * side[:, None]
+        out = np.empty(p.shape, order="F")
+        for j in range(3):
+            np.multiply(ng[:, j], side, out=out[:, j])
+            out[:, j] += p[:, j]
+        return out
 
     def shadow_tmax(self, dist: np.ndarray) -> np.ndarray:
         """Shadow-ray length that stops just before a light point at ``dist`` (inf stays inf)."""
