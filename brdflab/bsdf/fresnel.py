@@ -19,10 +19,13 @@ def fresnel_dielectric(cos_i: np.ndarray, eta_ext: float, eta_int: float) -> np.
     cos_i = np.clip(np.asarray(cos_i, dtype=np.float64), -1.0, 1.0)
     if eta_ext == eta_int:
         return np.zeros_like(cos_i)
-    entering = cos_i >= 0
-    eta_i = np.where(entering, eta_ext, eta_int)
-    eta_t = np.where(entering, eta_int, eta_ext)
-    ci = np.abs(cos_i)
+    if cos_i.size and cos_i.min() >= 0:
+        eta_i, eta_t, ci = eta_ext, eta_int, cos_i  # all on the exterior side (the common case)
+    else:
+        entering = cos_i >= 0
+        eta_i = np.where(entering, eta_ext, eta_int)
+        eta_t = np.where(entering, eta_int, eta_ext)
+        ci = np.abs(cos_i)
     sin2_t = (eta_i / eta_t) ** 2 * np.maximum(0.0, 1.0 - ci * ci)
     tir = sin2_t >= 1.0
     ct = np.sqrt(np.maximum(0.0, 1.0 - sin2_t))

@@ -11,13 +11,16 @@ warp                            mapping of (ξ1, ξ2)                           
 ``square_to_beckmann``          tan²θ = −α² ln(1−ξ1), φ = 2πξ2                    D(ω)·cos θ (PBR 8.4)
 ==============================  ================================================  =====================
 
-All functions take arrays: ``u`` of shape (N, 2) and return (N, 3) directions (or (N, 2) points);
-pdfs take (N, 3) directions and return (N,). Computation is in float64.
+All functions take arrays: ``u`` of shape (N, 2) and return (N, 3) directions (or (N, 2) points) in
+Fortran order (see :mod:`brdflab.math.frame`); pdfs take (N, 3) directions and return (N,). Computation
+is in float64.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from brdflab.math.frame import stack_cols
 
 INV_PI = 1.0 / np.pi
 INV_2PI = 0.5 / np.pi
@@ -26,14 +29,14 @@ INV_4PI = 0.25 / np.pi
 
 def _sphere_dir(z: np.ndarray, phi: np.ndarray) -> np.ndarray:
     r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    return stack_cols(r * np.cos(phi), r * np.sin(phi), z)
 
 
 def square_to_uniform_disk(u: np.ndarray) -> np.ndarray:
     """Map (N, 2) uniforms to uniform points (N, 2) in the unit disk."""
     r = np.sqrt(u[:, 0])
     phi = 2.0 * np.pi * u[:, 1]
-    return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
+    return stack_cols(r * np.cos(phi), r * np.sin(phi))
 
 
 def square_to_uniform_disk_pdf(p: np.ndarray) -> np.ndarray:
@@ -46,7 +49,7 @@ def square_to_uniform_triangle(u: np.ndarray) -> np.ndarray:
     fold = u[:, 0] + u[:, 1] > 1.0
     b0 = np.where(fold, 1.0 - u[:, 0], u[:, 0])
     b1 = np.where(fold, 1.0 - u[:, 1], u[:, 1])
-    return np.stack([b0, b1], axis=1)
+    return stack_cols(b0, b1)
 
 
 def square_to_uniform_triangle_pdf(b: np.ndarray) -> np.ndarray:
@@ -80,7 +83,7 @@ def square_to_cosine_hemisphere(u: np.ndarray) -> np.ndarray:
     r = np.sqrt(u[:, 0])
     phi = 2.0 * np.pi * u[:, 1]
     z = np.sqrt(np.maximum(0.0, 1.0 - u[:, 0]))
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    return stack_cols(r * np.cos(phi), r * np.sin(phi), z)
 
 
 def square_to_cosine_hemisphere_pdf(w: np.ndarray) -> np.ndarray:
@@ -100,7 +103,7 @@ def square_to_beckmann(u: np.ndarray, alpha: np.ndarray | float) -> np.ndarray:
         cos_t = 1.0 / np.sqrt(1.0 + tan2)
         sin_t = np.where(np.isfinite(tan2), np.sqrt(tan2) * cos_t, 1.0)
     phi = 2.0 * np.pi * u[:, 1]
-    return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=1)
+    return stack_cols(sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)
 
 
 def square_to_beckmann_pdf(w: np.ndarray, alpha: np.ndarray | float) -> np.ndarray:
