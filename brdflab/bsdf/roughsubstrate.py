@@ -32,6 +32,7 @@ from brdflab.bsdf.fresnel import fresnel_dielectric
 from brdflab.bsdf.microfacet import beckmann_d, half_vector, reflect, reflection_pdf, smith_g1
 from brdflab.bsdf.roughconductor import alpha_values, check_alpha
 from brdflab.math import warps
+from brdflab.math.frame import take_rows
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
 
@@ -135,7 +136,13 @@ class RoughSubstrate(BSDF):
         """Choose a lobe with the third uniform, sample it, and weight by the mixture density."""
         ps = self._p_specular(wi[:, 2])
         a = alpha_values(self.alpha, uv, len(wi))
-        wh = warps.square_to_beckmann(u[:, :2], a)
-        wo = np.where((u[:, 2] < ps)[:, None], reflect(wi, wh), warps.square_to_cosine_hemisphere(u[:, :2]))
+        # Most samples pick the diffuse lobe (p_s is the Fresnel reflectance, ~4 % at normal incidence):
+        # warp all of them cosine-weighted, then only the specular picks through the Beckmann warp.
+        wo = warps.square_to_cosine_hemisphere(u[:, :2])
+        spec = np.flatnonzero(u[:, 2] < ps)
+        if len(spec):
+            a_s = a if np.ndim(a) == 0 else np.take(a, spec)
+            wh = warps.square_to_beckmann(take_rows(u, spec)[:, :2], a_s)
+            wo[spec] = reflect(take_rows(wi, spec), wh)
         f, pdf = self._terms(wi, wo, uv, True, True, ps)
         return BSDFSample(wo, cos_weight(f, wo, pdf), pdf)
