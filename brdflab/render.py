@@ -7,10 +7,10 @@ films into the image in unit order. The image is therefore bit-identical for any
 
 Workers are **forked processes** (they inherit the loaded scene and its Embree BVH copy-on-write; a unit
 returns only its small tile film and its ray counters). Threads were measured first: a unit of 16 k
-samples makes ~1 300 NumPy calls of ~10 µs, and with the GIL held between (and during some of) them two
-threads reached only 1.3–1.6× one. Forked workers reach 1.85×. Where ``fork`` is unavailable the pool
-falls back to threads. At most :data:`IN_FLIGHT` units per worker are queued, so a stop request (Ctrl-C,
-``time_limit``) takes effect within about one unit.
+samples makes ~800 NumPy calls of ~10 µs, and with the GIL held between (and during some of) them two
+threads reached only 1.3–1.6× one; two forked workers reach 1.7–1.9× one (bench scenes). Where ``fork``
+is unavailable the pool falls back to threads. At most :data:`IN_FLIGHT` units per worker are queued, so
+a stop request (Ctrl-C, ``time_limit``) takes effect within about one unit.
 
 Units hold about :data:`UNIT_SAMPLES` camera samples: small enough that a batch's ~20 live float64 columns
 stay in the 2 MiB per-core L2 cache (measured on the Cornell box, one worker: 65 k samples 1.71 M
