@@ -266,6 +266,14 @@ def area_light_set(scene) -> AreaLightSet | None:
 def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]`` (no shadow rays yet)."""
     m = len(sp.p)
+    fused = area_light_set(scene)
+    if m and fused is not None:
+        wi, dist, radiance, pdf = fused.sample(sp.p, u)
+        return LightSamples(wi, radiance, pdf, np.zeros(m, bool), dist)
+    if m and len(scene.emitters) == 1:
+        em = scene.emitters[0]
+        r = em.sample(sp.p, u[:, 1:4])
+        return LightSamples(r.wi, r.radiance, r.pdf * scene.emitter_pmf[0], np.full(m, em.is_delta), r.dist)
     wi = np.zeros((m, 3), order="F")
     wi[:, 2] = 1.0
     radiance = np.zeros((m, 3), order="F")
@@ -274,17 +282,12 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     delta = np.zeros(m, bool)
     if m == 0 or not scene.emitters:
         return LightSamples(wi, radiance, pdf, delta, dist)
-    fused = area_light_set(scene)
-    if fused is not None:
-        wi, dist, radiance, pdf = fused.sample(sp.p, u)
-    else:
-        choice = np.zeros(m, np.int64) if len(scene.emitters) == 1 else choose_emitters(scene, u[:, 0])
-        for e, sel in by_group(choice):
-            em = scene.emitters[e]
-            r = em.sample(rows(sp.p, sel), rows(u, sel)[:, 1:4])
-            wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
-            pdf[sel] = r.pdf * scene.emitter_pmf[e]
-            delta[sel] = em.is_delta
+    for e, sel in by_group(choose_emitters(scene, u[:, 0])):
+        em = scene.emitters[e]
+        r = em.sample(rows(sp.p, sel), rows(u, sel)[:, 1:4])
+        wi[sel], radiance[sel], dist[sel] = r.wi, r.radiance, r.dist
+        pdf[sel] = r.pdf * scene.emitter_pmf[e]
+        delta[sel] = em.is_delta
     return LightSamples(wi, radiance, pdf, delta, dist)
 
 
