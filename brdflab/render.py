@@ -8,8 +8,8 @@ films into the image in unit order. The image is therefore bit-identical for any
 Workers are **forked processes** (they inherit the loaded scene and its Embree BVH copy-on-write; a unit
 returns only its small tile film and its ray counters). Threads were measured first: a unit of 16 k
 samples makes ~800 NumPy calls of ~10 µs, and with the GIL held between (and during some of) them two
-threads reached only 1.3–1.6× one; two forked workers reach 1.7–1.9× one (bench scenes). Where ``fork``
-is unavailable the pool falls back to threads. At most :data:`IN_FLIGHT` units per worker are queued, so
+threads reached only 1.3–1.6× one; two forked workers reach 1.7–1.9× one (bench scenes). Off Linux the
+pool falls back to threads. At most :data:`IN_FLIGHT` units per worker are queued, so
 a stop request (Ctrl-C, ``time_limit``) takes effect within about one unit.
 
 Units hold about :data:`UNIT_SAMPLES` camera samples: small enough that a batch's ~20 live float64 columns
@@ -27,6 +27,7 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -45,6 +46,8 @@ from brdflab.scene.geometry import RayStats
 UNIT_SAMPLES = 1 << 14
 #: Units queued per worker ahead of the one being merged.
 IN_FLIGHT = 3
+#: Workers are forked processes on Linux; elsewhere threads (macOS system libraries are not fork-safe).
+FORK_WORKERS = sys.platform.startswith("linux")
 
 
 def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
@@ -162,7 +165,7 @@ def _executor(workers: int) -> tuple[Executor | None, bool]:
     """(pool, is a process pool): forked processes where available, else threads; None for one worker."""
     if workers <= 1:
         return None, False
-    if "fork" in multiprocessing.get_all_start_methods():
+    if FORK_WORKERS and "fork" in multiprocessing.get_all_start_methods():
         return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                    initializer=_worker_init), True
     return ThreadPoolExecutor(workers), False

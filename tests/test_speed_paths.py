@@ -3,7 +3,8 @@
 * Walker's alias table (light-triangle choice) samples its pmf: chi-square over the outcomes, and a
   table built from the wrong weights is rejected.
 * Material families (one batched call per material type) reproduce the per-material evaluation.
-* Forked workers give the image of one in-process worker, bit for bit, and count the rays they trace.
+* Parallel workers (forked processes, or the thread fallback) give the image of one in-process worker, bit
+  for bit, and count the rays they trace.
 """
 
 from __future__ import annotations
@@ -96,7 +97,11 @@ def test_family_evaluation_matches_each_member(kind):
         np.testing.assert_array_equal(p_fused[sel], m.pdf(wi[sel], fused.wo[sel]))
 
 
-def test_forked_workers_match_one_worker_and_count_rays():
+@pytest.mark.parametrize("fork", [True, False])
+def test_parallel_workers_match_one_worker_and_count_rays(fork, monkeypatch):
+    import brdflab.render
+
+    monkeypatch.setattr(brdflab.render, "FORK_WORKERS", fork)  # False: the thread pool used off Linux
     s = load_scene(ROOT / "scenes/veach/veach_mis.xml")
     s.camera.width, s.camera.height = 96, 64
     a, sa = render(s, spp=8, seed=2, workers=1)
