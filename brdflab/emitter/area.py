@@ -24,6 +24,7 @@ import numpy as np
 from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math.distribution import AliasTable
 from brdflab.math.frame import dot
+from brdflab.scene.geometry import interp_rows
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import LUMINANCE, Texture, as_texture
 
@@ -108,8 +109,7 @@ class AreaEmitter(Emitter):
             for j in range(3):
                 np.multiply(ok, value[j], out=radiance[:, j])
         else:
-            uv = np.empty((n, 2), order="F")
-            uv[:, 0], uv[:, 1] = interp_table(self._uv, k, bu, bv, 2)
+            uv = interp_rows(self._uv, k, bu, bv, 2)
             radiance[:] = 0.0
             sel = np.flatnonzero(ok)
             radiance[sel] = self.le(uv[sel])
@@ -153,29 +153,12 @@ class DiscreteChooser:
 
 
 def invert_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Index k with cdf[k−1] ≤ u < cdf[k] (``searchsorted`` side="right", clamped to the last entry).
-
-    Short CDFs (≤ 8 entries) count the entries ≤ u with one comparison each, which is several times
-    faster than a binary search per element.
-    """
-    if len(cdf) <= 8:
-        k = np.zeros(len(u), np.intp)
-        for c in cdf[:-1]:
-            k += u >= c
-        return k
-    return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
-
-
-def interp_table(table: np.ndarray, k: np.ndarray, bu: np.ndarray, bv: np.ndarray, comps: int) -> list[np.ndarray]:
-    """Columns of v0 + bu(v1 − v0) + bv(v2 − v0) of triangles ``k`` in a packed (K, 3·comps) table."""
-    g = np.take(table, k, axis=0)
-    out = []
-    for j in range(comps):
-        c = g[:, j].copy()
-        c += bu * g[:, comps + j]
-        c += bv * g[:, 2 * comps + j]
-        out.append(c)
-    return out
+    """Index k with cdf[k−1] ≤ u < cdf[k] for a short CDF, by counting the entries ≤ u (one comparison
+    each: several times faster than a binary search per element for a handful of entries)."""
+    k = np.zeros(len(u), np.intp)
+    for c in cdf[:-1]:
+        k += u >= c
+    return k
 
 
 def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray | None, k: np.ndarray,
@@ -198,7 +181,8 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
     bu = np.where(fold, 1.0 - u1, u1)
     bv = 1.0 - b0
     bv -= bu
-    px, py, pz = interp_table(pos, k, bu, bv, 3)
+    y = interp_rows(pos, k, bu, bv, 3)
+    px, py, pz = y[:, 0], y[:, 1], y[:, 2]
     dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
     dist2 = dx * dx
     dist2 += dy * dy
@@ -213,7 +197,8 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
         g = np.take(face_n, k, axis=0)
         nx, ny, nz = g[:, 0], g[:, 1], g[:, 2]
     else:
-        nx, ny, nz = interp_table(nrm, k, bu, bv, 3)
+        nl = interp_rows(nrm, k, bu, bv, 3)
+        nx, ny, nz = nl[:, 0], nl[:, 1], nl[:, 2]
         ln = np.sqrt(nx * nx + ny * ny + nz * nz)
         ln[~(ln > 0)] = 1.0
         nx, ny, nz = nx / ln, ny / ln, nz / ln

@@ -90,13 +90,28 @@ class AliasTable:
         self.q = np.array(q)
         self.alias = np.array(alias, dtype=np.intp)
 
-    def sample(self, u: np.ndarray) -> np.ndarray:
-        """Outcome indices (N,) for uniforms ``u`` in [0, 1)."""
+    def _column(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(column k, coin r, threshold q_k, r < q_k) for uniforms ``u``."""
         x = u * self.n
         k = x.astype(np.intp)
         np.minimum(k, self.n - 1, out=k)
         x -= k
-        return np.where(x < np.take(self.q, k), k, np.take(self.alias, k))
+        q = np.take(self.q, k)
+        return k, x, q, x < q
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        """Outcome indices (N,) for uniforms ``u`` in [0, 1)."""
+        k, _, _, keep = self._column(u)
+        return np.where(keep, k, np.take(self.alias, k))
+
+    def sample_remainder(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Outcome indices (N,) and what is left of each uniform: given the outcome, r/q_k (kept column)
+        or (r − q_k)/(1 − q_k) (alias) is again uniform in [0, 1), ready to place a point in the cell."""
+        k, x, q, keep = self._column(u)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rest = np.where(keep, x / q, (x - q) / (1.0 - q))
+        np.clip(rest, 0.0, np.nextafter(1.0, 0.0), out=rest)
+        return np.where(keep, k, np.take(self.alias, k)), rest
 
 
 class Distribution2D:
@@ -123,17 +138,7 @@ class Distribution2D:
         again uniform and places x in the cell, ``u[:, 1]`` places y. (Two binary searches, over the
         rows and within the row, cost 3–4× as much.)
         """
-        t = self._alias
-        x = u[:, 0] * t.n
-        k = x.astype(np.intp)
-        np.minimum(k, t.n - 1, out=k)
-        x -= k
-        q = np.take(t.q, k)
-        keep = x < q
-        cell = np.where(keep, k, np.take(t.alias, k))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            off = np.where(keep, x / q, (x - q) / (1.0 - q))
-        np.clip(off, 0.0, np.nextafter(1.0, 0.0), out=off)
+        cell, off = self._alias.sample_remainder(u[:, 0])
         row, col = np.divmod(cell, self.w)
         pts = np.empty((len(u), 2), order="F")
         pts[:, 0] = col + off

@@ -50,6 +50,18 @@ class Hits:
     """(N,) mesh index (−1 for misses)."""
 
 
+def interp_rows(packed: np.ndarray, idx: np.ndarray, bu: np.ndarray, bv: np.ndarray, k: int) -> np.ndarray:
+    """v0 + bu(v1 − v0) + bv(v2 − v0), (N, k) Fortran-ordered, for triangles ``idx`` of a packed table
+    whose rows hold the k components of v0, then of v1 − v0, then of v2 − v0 (one row gather)."""
+    g = np.take(packed, idx, axis=0)
+    out = np.empty((len(idx), k), order="F")
+    for j in range(k):
+        out[:, j] = g[:, j]
+        out[:, j] += bu * g[:, k + j]
+        out[:, j] += bv * g[:, 2 * k + j]
+    return out
+
+
 def rows_f32(a: np.ndarray) -> np.ndarray:
     """(N, 3) float32 C-ordered copy for embreex, filled column by column (2.5× faster than
     ``np.ascontiguousarray(a, np.float32)`` from the Fortran-ordered float64 arrays of the hot path)."""
@@ -208,14 +220,7 @@ class Geometry:
         n = len(pr)
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
-            # packed rows: k components of v0, then of v1 − v0, then of v2 − v0 (one row gather).
-            g = np.take(packed, pr, axis=0)
-            out = np.empty((n, k), order="F")
-            for j in range(k):
-                out[:, j] = g[:, j]
-                out[:, j] += bu * g[:, k + j]
-                out[:, j] += bv * g[:, 2 * k + j]
-            return out
+            return interp_rows(packed, pr, bu, bv, k)
 
         p = interp(self.tri_pos, 3) if positions else None
         ng = None
