@@ -67,7 +67,9 @@ def test_white_furnace_environment():
         hits = scene.geometry.intersect(*scene.camera.generate_rays(
             np.repeat(np.arange(64) + 0.5, scene.camera.height),
             np.tile(np.arange(scene.camera.height) + 0.5, 64))[:2])
-        img, _ = render(scene, spp=64, seed=3)
+        # Seed-to-seed spread of the interior mean (8 seeds): ems 0.36 % at 64 spp, mis 0.13 %, mats 0.005 %;
+        # 256 spp puts the 1 % tolerance at ≥ 5σ (at 64 spp, ems sat at 2.8σ and failed on a new random layout).
+        img, _ = render(scene, spp=64 if name == "direct_mats" else 256, seed=3)
         on = hits.valid.reshape(64, scene.camera.height).T
         # Interior pixels of the sphere (the filter mixes edge pixels with the background).
         interior = on.copy()

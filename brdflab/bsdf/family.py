@@ -66,6 +66,11 @@ class BSDFFamilies:
     mesh_member: np.ndarray
     """(meshes,) index of each mesh's material within its family."""
 
+    @property
+    def any_tables(self) -> bool:
+        """True when some family has members with different constants (points need member indices)."""
+        return any(f.tables for f in self.families)
+
     @classmethod
     def build(cls, bsdfs: list[BSDF], mesh_bsdf: np.ndarray) -> BSDFFamilies:
         """Group ``bsdfs`` by :meth:`~brdflab.bsdf.base.BSDF.family_key`; ``mesh_bsdf`` maps mesh → bsdf."""

@@ -53,10 +53,13 @@ class ShadingPoints:
     uv: np.ndarray
     wi: np.ndarray
     """(M, 3) local direction toward the camera."""
-    family: np.ndarray
-    """(M,) material family index (:mod:`brdflab.bsdf.family`)."""
-    member: np.ndarray
-    """(M,) index of the point's material within its family."""
+    groups: list[tuple[int, slice]]
+    """(family, rows) per material family present (:mod:`brdflab.bsdf.family`): the points are sorted by
+    family, so each family's points are one contiguous slice (its inputs are views, its outputs one block
+    copy, no gathers or scatters)."""
+    member: np.ndarray | None
+    """(M,) index of the point's material within its family (None when no family has several members
+    with different constants)."""
 
     def local(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
         """World directions → local shading frame (of the points ``sel``, default all)."""
@@ -86,8 +89,18 @@ class SceneTables:
     tri_emitter: np.ndarray
     """(triangles + 1,) emitter index of each triangle's mesh, −1 for none; the extra last entry (−1) is
     what a miss (primID −1) reads."""
+    tri_code: np.ndarray
+    """(triangles + 1,) what a camera ray that hits the triangle does: the material family of its mesh
+    (≥ 0, shade it), :data:`CODE_EMITTER` (its mesh emits: return L_e) or, in the extra last entry,
+    :data:`CODE_MISS`."""
     bsdf_uv: bool
     """True when some material has a texture, so shading points need their uvs."""
+    has_emitter_meshes: bool
+    """True when some mesh emits (camera rays can hit an emitter)."""
+
+
+#: :attr:`SceneTables.tri_code` of triangles on emitters and of misses.
+CODE_EMITTER, CODE_MISS = -1, -2
 
 
 def scene_tables(scene) -> SceneTables:
@@ -95,12 +108,40 @@ def scene_tables(scene) -> SceneTables:
     tab = scene.__dict__.get("_tables")
     if tab is None:
         tri_mesh = scene.geometry.tri_mesh
-        tri_emitter = np.append(np.asarray(scene.mesh_emitter, np.int64)[tri_mesh] if len(tri_mesh) else
-                                np.zeros(0, np.int64), -1)
+        fams = BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf)
+        mesh_emitter = np.asarray(scene.mesh_emitter, np.int64)
+        tri_emitter = np.append(mesh_emitter[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), -1)
+        mesh_code = np.where(mesh_emitter >= 0, CODE_EMITTER, fams.mesh_family)
+        tri_code = np.append(mesh_code[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), CODE_MISS)
         bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
-        tab = SceneTables(BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf), tri_emitter, bsdf_uv)
+        tab = SceneTables(fams, tri_emitter, tri_code, bsdf_uv, bool(np.any(mesh_emitter >= 0)))
         scene.__dict__["_tables"] = tab
     return tab
+
+
+def sort_by_family(family: np.ndarray, n_families: int) -> tuple[np.ndarray, list[tuple[int, slice]]]:
+    """Indices of the entries with ``family`` ≥ 0, grouped by family (ascending index within one), and
+    the (family, slice) of each non-empty group in that order. Negative entries are left out.
+
+    One pass for a single family, one comparison per family for up to 8, a stable argsort beyond.
+    """
+    if n_families <= 8:
+        if n_families == 1:
+            parts = [np.flatnonzero(family >= 0)]
+        else:
+            parts = [np.flatnonzero(family == g) for g in range(n_families)]
+        sizes = [len(p) for p in parts]
+        order = parts[0] if n_families == 1 else np.concatenate(parts)
+    else:
+        order = np.argsort(family, kind="stable")
+        order = order[np.searchsorted(np.take(family, order), 0):]
+        sizes = np.bincount(np.take(family, order), minlength=n_families)
+    groups, start = [], 0
+    for g, c in enumerate(sizes):
+        if c:
+            groups.append((g, slice(start, start + int(c))))
+            start += int(c)
+    return order, groups
 
 
 def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, ShadingPoints]:
@@ -113,42 +154,50 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
     tab = scene_tables(scene)
     rh = g.trace(o, d, tmax)
     L = np.zeros((len(o), 3), order="F")
-    miss = np.flatnonzero(~rh.valid)
-    if len(miss):
-        L[miss] = background(scene, take_rows(d, miss))
-    em = np.take(tab.tri_emitter, rh.prim)
-    lit = np.flatnonzero(em >= 0)
-    if len(lit):
-        h = g.surface(rh, lit, positions=False)
-        d_lit = take_rows(d, lit)
-        for e, sel in by_group(np.take(em, lit)):
-            L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
-    idx = np.flatnonzero(rh.valid & (em < 0))
-    return L, make_shading_points(scene, g.surface(rh, idx, uv=tab.bsdf_uv), take_rows(d, idx), idx)
+    code = np.take(tab.tri_code, rh.prim)
+    if scene.environment is not None:
+        miss = np.flatnonzero(code == CODE_MISS)
+        if len(miss):
+            L[miss] = background(scene, take_rows(d, miss))
+    if tab.has_emitter_meshes:
+        lit = np.flatnonzero(code == CODE_EMITTER)
+        if len(lit):
+            h = g.surface(rh, lit, positions=False)
+            d_lit = take_rows(d, lit)
+            for e, sel in by_group(np.take(tab.tri_emitter, h.prim)):
+                L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
+    idx, groups = sort_by_family(code, len(tab.bsdf_families.families))
+    return L, make_shading_points(scene, g.surface(rh, idx, uv=tab.bsdf_uv), take_rows(d, idx), idx, groups)
 
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
-    """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints`."""
+    """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints` (sorted by
+    material family: ``index`` says which ray each point belongs to)."""
+    fams = scene_tables(scene).bsdf_families
+    order, groups = sort_by_family(np.take(fams.mesh_family, np.take(hits.mesh, idx)), len(fams.families))
+    idx = np.take(idx, order)
     h = Hits(np.take(hits.valid, idx), np.take(hits.t, idx), take_rows(hits.p, idx), take_rows(hits.ng, idx),
              take_rows(hits.ns, idx), take_rows(hits.uv, idx), np.take(hits.prim, idx), np.take(hits.mesh, idx))
-    return make_shading_points(scene, h, take_rows(d, idx), idx)
+    return make_shading_points(scene, h, take_rows(d, idx), idx, groups)
 
 
-def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
-    """:class:`ShadingPoints` of the (already compacted) hits ``h`` of rays ``d``, camera indices ``idx``."""
+def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray,
+                        groups: list[tuple[int, slice]]) -> ShadingPoints:
+    """:class:`ShadingPoints` of the (already compacted, family-sorted) hits ``h`` of rays ``d``, camera
+    indices ``idx``, family slices ``groups`` (:func:`sort_by_family`)."""
     s, t = frame_from_normal(h.ns)
     wi = to_local(-d, s, t, h.ns)
     fams = scene_tables(scene).bsdf_families
-    return ShadingPoints(idx, h.p, h.ng, h.ns, s, t, h.uv, wi, np.take(fams.mesh_family, h.mesh),
-                         np.take(fams.mesh_member, h.mesh))
+    member = np.take(fams.mesh_member, h.mesh) if fams.any_tables else None
+    return ShadingPoints(idx, h.p, h.ng, h.ns, s, t, h.uv, wi, groups, member)
 
 
 def bound_bsdfs(scene, sp: ShadingPoints):
-    """Yield (material, selector) per family present among the points ``sp`` (see :func:`by_group`)."""
+    """Yield (material, slice of the points) per family present among the points ``sp``."""
     families = scene_tables(scene).bsdf_families.families
-    for g, sel in by_group(sp.family):
+    for g, sel in sp.groups:
         fam = families[g]
-        yield fam.bind(rows(sp.member, sel) if fam.tables else None), sel
+        yield fam.bind(sp.member[sel] if fam.tables else None), sel
 
 
 def by_group(ids: np.ndarray):
@@ -179,10 +228,12 @@ def by_group(ids: np.ndarray):
 
 
 def rows(a: np.ndarray | None, sel) -> np.ndarray | None:
-    """``a[sel]`` for a :func:`by_group` selector: the array itself for ``slice(None)``, else a gather
-    (None stays None)."""
-    if a is None or isinstance(sel, slice):
-        return a
+    """``a[sel]`` for a selector of :func:`by_group` or :func:`sort_by_family`: a view for a slice, else a
+    gather (None stays None)."""
+    if a is None:
+        return None
+    if isinstance(sel, slice):
+        return a[sel]
     return take_rows(a, sel) if a.ndim == 2 else np.take(a, sel)
 
 
@@ -204,10 +255,14 @@ def any_positive(rgb: np.ndarray) -> np.ndarray:
 
 def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False):
     """f(wi, wo) (M, 3) for local ``wo``; with ``with_pdf`` also the BSDF sampling density (M,)."""
-    f = np.zeros((len(wo), 3), order="F")
-    pdf = np.zeros(len(wo)) if with_pdf else None
+    m = len(wo)
+    if _one_family(sp, m):
+        bsdf, _ = next(bound_bsdfs(scene, sp))
+        return bsdf.eval_pdf(sp.wi, wo, sp.uv) if with_pdf else bsdf.eval(sp.wi, wo, sp.uv)
+    f = np.zeros((m, 3), order="F")
+    pdf = np.zeros(m) if with_pdf else None
     for bsdf, sel in bound_bsdfs(scene, sp):
-        wi_b, wo_b, uv_b = rows(sp.wi, sel), rows(wo, sel), rows(sp.uv, sel)
+        wi_b, wo_b, uv_b = sp.wi[sel], wo[sel], rows(sp.uv, sel)
         if with_pdf:
             f[sel], pdf[sel] = bsdf.eval_pdf(wi_b, wo_b, uv_b)
         else:
@@ -215,14 +270,23 @@ def eval_bsdfs(scene, sp: ShadingPoints, wo: np.ndarray, with_pdf: bool = False)
     return (f, pdf) if with_pdf else f
 
 
+def _one_family(sp: ShadingPoints, m: int) -> bool:
+    """True when one material family holds all ``m`` points (its results need no assembling)."""
+    return len(sp.groups) == 1 and sp.groups[0][1] == slice(0, m)
+
+
 def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One BSDF sample per point: (local wo, weight f·cos/pdf, pdf)."""
     m = len(u)
+    if _one_family(sp, m):
+        bsdf, _ = next(bound_bsdfs(scene, sp))
+        r = bsdf.sample(sp.wi, u, sp.uv)
+        return r.wo, r.weight, r.pdf
     wo = np.zeros((m, 3), order="F")
     weight = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
     for bsdf, sel in bound_bsdfs(scene, sp):
-        r = bsdf.sample(rows(sp.wi, sel), rows(u, sel), rows(sp.uv, sel))
+        r = bsdf.sample(sp.wi[sel], u[sel], rows(sp.uv, sel))
         wo[sel], weight[sel], pdf[sel] = r.wo, r.weight, r.pdf
     return wo, weight, pdf
 
@@ -343,5 +407,6 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
-           "shading_points", "make_shading_points", "scene_tables", "by_group", "accumulate", "any_positive", "rows",
+           "shading_points", "make_shading_points", "scene_tables", "sort_by_family", "by_group", "accumulate",
+           "any_positive", "rows",
            "eval_bsdfs", "sample_bsdfs", "sample_lights", "add_light_samples", "emission_along", "choose_emitters"]

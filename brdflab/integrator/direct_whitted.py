@@ -39,5 +39,5 @@ class DirectWhitted(Integrator):
             origin = g.offset_origin(sp.p[live], sp.ng[live], r.wi[live])
             vis = ~g.occluded(origin, r.wi[live], g.shadow_tmax(r.dist[live]))
             c = r.radiance[live] * f[live] * (np.maximum(wo[live, 2], 0.0) / r.pdf[live] * vis)[:, None]
-            L[idx[live]] += c
+            L[sp.index[live]] += c
         return L
