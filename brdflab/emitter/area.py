@@ -24,7 +24,7 @@ import numpy as np
 from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math.distribution import AliasTable
 from brdflab.math.frame import dot
-from brdflab.scene.geometry import interp_rows
+from brdflab.scene.geometry import interp_cols
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import LUMINANCE, Texture, as_texture
 
@@ -74,16 +74,17 @@ class AreaEmitter(Emitter):
         self.area = float(areas.sum())
         self.chooser = DiscreteChooser(areas) if self.area > 0 else None
         tris = self.tris
-        # Row per triangle (one row gather per sample): p0, p1 − p0, p2 − p0; the face normal; vertex normals.
-        self._pos = geometry.tri_pos[tris]
+        # Column per triangle (:func:`~brdflab.scene.geometry.interp_cols`): p0, p1 − p0, p2 − p0; vertex
+        # normals; uvs. Row per triangle: the face normal.
+        self._pos = geometry.tri_pos[:, tris]
         self._face_n = geometry.face_normals[tris]
-        nrm = geometry.tri_nrm[tris] if geometry.tri_nrm is not None else None
+        nrm = geometry.tri_nrm[:, tris] if geometry.tri_nrm is not None else None
         # Interpolated shading normals only where they differ from the face normal (flat lights skip it).
-        flat = nrm is None or (np.allclose(nrm[:, 0:3], self._face_n, rtol=0, atol=1e-12)
-                               and np.allclose(nrm[:, 3:9], 0.0, rtol=0, atol=1e-12))
+        flat = nrm is None or (np.allclose(nrm[0:3], self._face_n.T, rtol=0, atol=1e-12)
+                               and np.allclose(nrm[3:9], 0.0, rtol=0, atol=1e-12))
         self._nrm = None if flat else nrm
-        self._uv = (geometry.tri_uv[tris] if geometry.tri_uv is not None
-                    else np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]).repeat(len(tris), axis=0))
+        self._uv = (geometry.tri_uv[:, tris] if geometry.tri_uv is not None
+                    else np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]).T.repeat(len(tris), axis=1))
 
     def _choose_triangles(self, u: np.ndarray) -> np.ndarray:
         """Triangle index (into the emitter's own list) with probability A_k / A."""
@@ -109,7 +110,7 @@ class AreaEmitter(Emitter):
             for j in range(3):
                 np.multiply(ok, value[j], out=radiance[:, j])
         else:
-            uv = interp_rows(self._uv, k, bu, bv, 2)
+            uv = interp_cols(self._uv, k, bu, bv, 2)
             radiance[:] = 0.0
             sel = np.flatnonzero(ok)
             radiance[sel] = self.le(uv[sel])
@@ -181,7 +182,7 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
     bu = np.where(fold, 1.0 - u1, u1)
     bv = 1.0 - b0
     bv -= bu
-    y = interp_rows(pos, k, bu, bv, 3)
+    y = interp_cols(pos, k, bu, bv, 3)
     px, py, pz = y[:, 0], y[:, 1], y[:, 2]
     dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
     dist2 = dx * dx
@@ -197,7 +198,7 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
         g = np.take(face_n, k, axis=0)
         nx, ny, nz = g[:, 0], g[:, 1], g[:, 2]
     else:
-        nl = interp_rows(nrm, k, bu, bv, 3)
+        nl = interp_cols(nrm, k, bu, bv, 3)
         nx, ny, nz = nl[:, 0], nl[:, 1], nl[:, 2]
         ln = np.sqrt(nx * nx + ny * ny + nz * nz)
         ln[~(ln > 0)] = 1.0
@@ -225,14 +226,14 @@ class AreaLightSet:
             pos.append(e._pos)
             face_n.append(e._face_n)
             if use_nrm:
-                nrm.append(e._nrm if e._nrm is not None else np.concatenate([e._face_n, np.zeros((m, 6))], axis=1))
+                nrm.append(e._nrm if e._nrm is not None else np.concatenate([e._face_n.T, np.zeros((6, m))]))
             rad.append(np.repeat((e.radiance.value * e.scale)[:, None], m, axis=1))
             scale.append(np.full(m, p_e / e.area if e.area > 0 else 0.0))
             areas = e.geometry.tri_area[e.tris]
             prob.append(p_e * areas / e.area if e.area > 0 else np.zeros(m))
-        self._pos = np.concatenate(pos)
+        self._pos = np.concatenate(pos, axis=1)
         self._face_n = np.concatenate(face_n)
-        self._nrm = np.concatenate(nrm) if use_nrm else None
+        self._nrm = np.concatenate(nrm, axis=1) if use_nrm else None
         self._radiance = np.ascontiguousarray(np.concatenate(rad, axis=1))
         # Per emitter: radiance (3, E) and p_e / A_e, for rays that hit an emitter.
         self._emitter_radiance = np.stack([e.radiance.value * e.scale for e in emitters], axis=1)
