@@ -362,14 +362,18 @@ def add_light_samples(scene, L: np.ndarray, sp: ShadingPoints, ls: LightSamples,
     Shadow rays are traced only where the product is positive: a light below the surface's horizon
     (cos θ = 0), an invalid sample or a zero BSDF value needs no visibility test.
     """
-    live = np.flatnonzero((scale > 0) & any_positive(ls.radiance) & any_positive(f))
+    c = np.empty(f.shape, order="F")
+    for j in range(3):
+        np.multiply(ls.radiance[:, j], f[:, j], out=c[:, j])
+        c[:, j] *= scale
+    live = np.flatnonzero(any_positive(c))
     if len(live) == 0:
         return
-    g = scene.geometry
-    wl = take_rows(ls.wi, live)
-    o = g.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), wl)
-    vis = live[~g.occluded(o, wl, g.shadow_tmax(np.take(ls.dist, live)))]
-    accumulate(L, np.take(sp.index, vis), take_rows(ls.radiance, vis), take_rows(f, vis), np.take(scale, vis))
+    vis = live[~scene.geometry.shadow_occluded(sp.p, sp.ng, ls.wi, ls.dist, live)]
+    idx = np.take(sp.index, vis)
+    for j in range(3):
+        col = L[:, j]
+        col[idx] = np.take(col, idx) + np.take(c[:, j], vis)
 
 
 def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
