@@ -83,6 +83,9 @@ class AreaEmitter(Emitter):
         flat = nrm is None or (np.allclose(nrm[0:3], self._face_n.T, rtol=0, atol=1e-12)
                                and np.allclose(nrm[3:9], 0.0, rtol=0, atol=1e-12))
         self._nrm = None if flat else nrm
+        # A planar light (a quad, a disc) has one normal: no per-sample normal gather.
+        planar = flat and np.allclose(self._face_n, self._face_n[:1], rtol=0, atol=1e-12)
+        self._normal = self._face_n[0].copy() if planar else self._face_n
         self._uv = (geometry.tri_uv[:, tris] if geometry.tri_uv is not None
                     else np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]).T.repeat(len(tris), axis=1))
 
@@ -98,11 +101,12 @@ class AreaEmitter(Emitter):
         """Sample a point uniformly by area and return the solid-angle sample seen from ``ref_p``."""
         n = len(u)
         k = self._choose_triangles(u[:, 2])
-        wi, dist, dist2, cos_l, bu, bv = sample_triangle_points(self._pos, self._face_n, self._nrm, k, u, ref_p)
-        # p_ω = ‖y − x‖² / (A |n_l·ω|) for front-facing light points, else 0.
+        wi, dist, dist2, cos_l, bu, bv = sample_triangle_points(self._pos, self._normal, self._nrm, k, u, ref_p)
+        # p_ω = ‖y − x‖² / (A |n_l·ω|) for front-facing light points, else 0. The test 0 < p_ω < ∞ also
+        # rejects back faces (cos θ_l ≤ 0 gives p_ω ≤ 0, ∞ or NaN).
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             pdf = dist2 / (self.area * cos_l)
-        ok = (cos_l > 0) & (pdf > 0) & (pdf < np.inf)
+        ok = (pdf > 0) & (pdf < np.inf)
         pdf = np.where(ok, pdf, 0.0)
         radiance = np.empty((n, 3), order="F")
         if self.radiance.constant:
@@ -164,7 +168,8 @@ def invert_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray | None, k: np.ndarray,
                            u: np.ndarray, ref_p: np.ndarray):
-    """Uniform points on triangles ``k`` (packed tables) seen from ``ref_p``.
+    """Uniform points on triangles ``k`` (packed tables) seen from ``ref_p``; ``face_n`` is the (K, 3)
+    table of face normals, or one (3,) normal shared by all triangles.
 
     Folding warp (spec §9.1): barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2) of (p0, p1, p2) after folding the square
     onto the triangle, i.e. y = p0 + bu(p1 − p0) + bv(p2 − p0) with bu = ξ2, bv = 1 − ξ1 − ξ2.
@@ -194,7 +199,9 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
     np.multiply(dx, inv, out=wi[:, 0])
     np.multiply(dy, inv, out=wi[:, 1])
     np.multiply(dz, inv, out=wi[:, 2])
-    if nrm is None:
+    if nrm is None and face_n.ndim == 1:
+        nx, ny, nz = face_n
+    elif nrm is None:
         g = np.take(face_n, k, axis=0)
         nx, ny, nz = g[:, 0], g[:, 1], g[:, 2]
     else:
@@ -257,7 +264,7 @@ class AreaLightSet:
         wi, dist, dist2, cos_l, _, _ = sample_triangle_points(self._pos, self._face_n, self._nrm, k, u[:, 1:3], ref_p)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             pdf = dist2 * np.take(self._pdf_scale, k) / cos_l
-        ok = (cos_l > 0) & (pdf > 0) & (pdf < np.inf)
+        ok = (pdf > 0) & (pdf < np.inf)  # also rejects back faces (see AreaEmitter.sample)
         pdf = np.where(ok, pdf, 0.0)
         radiance = np.empty((n, 3), order="F")
         for j in range(3):

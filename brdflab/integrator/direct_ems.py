@@ -30,7 +30,7 @@ class DirectEMS(Integrator):
         ls = sample_lights(scene, sp, rng.random((len(sp.index), 4)))
         wo = sp.local(ls.wi)
         f = eval_bsdfs(scene, sp, wo)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
+        # cos θ / p (0 for invalid samples, whose pdf is 0: dividing by ∞ instead gives 0 in one pass).
+        scale = np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, np.inf)
         add_light_samples(scene, L, sp, ls, f, scale)
         return L
