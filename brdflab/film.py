@@ -78,18 +78,33 @@ class Camera:
         """Rays through continuous pixel positions; returns (origins, unit directions, tmax)."""
         a = self.width / self.height
         t = np.tan(np.radians(self.fov) * 0.5)
-        x = (1.0 - 2.0 * px / self.width) * t
-        y = (1.0 - 2.0 * py / self.height) * (t / a)
-        inv_len = 1.0 / np.sqrt(x * x + y * y + 1.0)  # = d̂_z
         xf = self.to_world if self.to_world is not None else Transform()
         m, origin = xf.matrix, xf.origin()
-        d = np.empty((len(px), 3), order="F")
-        o = np.empty((len(px), 3), order="F")
-        near = self.near / inv_len  # t_min = near / d̂_z, applied by moving the origin along the ray
+        # x = (1 − 2 p_x/W)·T and y = (1 − 2 p_y/H)·T/a as affine maps; ‖(x, y, 1)‖ = 1/d̂_z.
+        x = px * (-2.0 * t / self.width)
+        x += t
+        y = py * (-2.0 * t / (a * self.height))
+        y += t / a
+        length = x * x
+        length += y * y
+        length += 1.0
+        np.sqrt(length, out=length)
+        inv_len = 1.0 / length
+        n = len(px)
+        d = np.empty((n, 3), order="F")
+        o = np.empty((n, 3), order="F")
+        near = length * self.near  # t_min = near / d̂_z, applied by moving the origin along the ray
         for j in range(3):
-            d[:, j] = (m[j, 0] * x + m[j, 1] * y + m[j, 2]) * inv_len
-            o[:, j] = origin[j] + d[:, j] * near
-        return o, d, (self.far - self.near) / inv_len
+            c = d[:, j]
+            np.multiply(x, m[j, 0], out=c)
+            c += y * m[j, 1]
+            c += m[j, 2]
+            c *= inv_len
+            oc = o[:, j]
+            np.multiply(c, near, out=oc)
+            oc += origin[j]
+        length *= self.far - self.near
+        return o, d, length
 
 
 class Filter:

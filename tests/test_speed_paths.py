@@ -2,6 +2,8 @@
 
 * Walker's alias table (light-triangle choice) samples its pmf: chi-square over the outcomes, and a
   table built from the wrong weights is rejected.
+* A quad light is sampled as one parallelogram: uniform by area (chi-square, with a negative control),
+  the same pdf as the triangle path.
 * Material families (one batched call per material type) reproduce the per-material evaluation.
 * Parallel workers (forked processes, or the thread fallback) give the image of one in-process worker, bit
   for bit, and count the rays they trace.
@@ -130,3 +132,57 @@ def test_distribution2d_alias_sampling_is_uniform_within_cells():
     ramp = np.tile(np.linspace(0.7, 1.3, sub), 6 * 10 * sub)
     wrong = expected * ramp
     assert _chi2_p(bins, wrong / wrong.sum()) < 1e-6
+
+
+def _quad_light_scene(tmp_path, corners: str):
+    obj = tmp_path / "light.obj"
+    obj.write_text(corners + "f 1 3 2\nf 1 4 3\n")
+    floor = tmp_path / "floor.obj"
+    floor.write_text("v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n")
+    xml = tmp_path / "s.xml"
+    xml.write_text(f"""<scene><integrator type="direct_ems"/>
+<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="8"/>
+<transform name="toWorld"><lookat origin="0,3,3" target="0,0,0" up="0,1,0"/></transform></camera>
+<mesh type="obj"><string name="filename" value="{floor}"/><bsdf type="diffuse"/></mesh>
+<mesh type="obj"><string name="filename" value="{obj}"/>
+<emitter type="area"><color name="radiance" value="1,1,1"/></emitter></mesh></scene>""")
+    return load_scene(xml)
+
+
+def test_parallelogram_light_samples_uniformly_by_area(tmp_path):
+    """A quad light made of two triangles is sampled as one parallelogram: the points are uniform over it
+    (chi-square on a grid of its own coordinates, 8 × 8 cells), the pdf is ‖y − x‖²/(A cos θ_l), as for
+    the triangle path, and a warp that is not uniform is rejected."""
+    # A sheared, tilted parallelogram facing down (−y), wound so that its normal points at the floor.
+    s = _quad_light_scene(tmp_path, "v -1 2 -1\nv -0.5 2.2 1\nv 1.5 2.2 1\nv 1 2 -1\n")
+    em = s.emitters[0]
+    assert em._quad is not None and em._normal[1] < 0
+    c, e1, e2 = em._quad
+    assert np.linalg.norm(np.cross(e1, e2)) == pytest.approx(em.area)
+    rng = np.random.default_rng(4)
+    n = 200_000
+    ref = np.column_stack([rng.uniform(-2, 2, n), np.zeros(n), rng.uniform(-2, 2, n)])
+    r = em.sample(ref, rng.random((n, 3)))
+    y = ref + r.wi * r.dist[:, None]
+    # Coordinates in the (e1, e2) basis (least squares: the points lie in the plane).
+    st = np.linalg.lstsq(np.column_stack([e1, e2]), (y - c).T, rcond=None)[0].T
+    assert np.all((st > -1e-9) & (st < 1 + 1e-9))
+    cells = np.minimum((st * 8).astype(int), 7)
+    bins = cells[:, 0] * 8 + cells[:, 1]
+    assert _chi2_p(bins, np.full(64, 1 / 64)) > 1e-4
+    cos_l = -(r.wi @ em._normal)
+    np.testing.assert_allclose(r.pdf, r.dist**2 / (em.area * cos_l), rtol=1e-12)
+    # The triangle path gives the same density at its own points.
+    em._quad = None
+    rt = em.sample(ref, rng.random((n, 3)))
+    np.testing.assert_allclose(rt.pdf, rt.dist**2 / (em.area * -(rt.wi @ em._normal)), rtol=1e-12)
+    # Negative control: points crowded toward one edge (ξ1² instead of ξ1) are rejected.
+    bad = np.minimum((np.column_stack([st[:, 0] ** 2, st[:, 1]]) * 8).astype(int), 7)
+    assert _chi2_p(bad[:, 0] * 8 + bad[:, 1], np.full(64, 1 / 64)) < 1e-6
+
+
+def test_parallelogram_detection(tmp_path):
+    # A trapezoid (two triangles sharing an edge, but not a parallelogram) keeps the triangle path.
+    s = _quad_light_scene(tmp_path, "v -1 2 -1\nv -0.5 2 1\nv 0.5 2 1\nv 1 2 -1\n")
+    assert s.emitters[0]._quad is None
+    assert load_scene(ROOT / "scenes/cbox/cbox_spheres.xml").emitters[0]._quad is not None

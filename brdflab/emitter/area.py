@@ -14,7 +14,9 @@ Sampling: a triangle with probability A_k / A (:class:`DiscreteChooser`: CDF inv
 method for more than 8 triangles), a uniform
 point in it by the folding warp with barycentrics (ξ1, ξ2, 1 − ξ1 − ξ2), area density 1/A, converted to
 solid angle at the receiver x: p_ω = ‖y − x‖² / (A |n_l·ω|) (PBR eq. 13.x, change of variables dω =
-|cos θ_l| dA / r²).
+|cos θ_l| dA / r²). A planar light made of two triangles that tile a parallelogram (the usual quad light)
+is sampled as y = c + ξ1·e1 + ξ2·e2 instead: the same density 1/A, without the triangle choice, the fold
+or the table gather (half the sampling time on the Cornell box).
 """
 
 from __future__ import annotations
@@ -86,6 +88,9 @@ class AreaEmitter(Emitter):
         # A planar light (a quad, a disc) has one normal: no per-sample normal gather.
         planar = flat and np.allclose(self._face_n, self._face_n[:1], rtol=0, atol=1e-12)
         self._normal = self._face_n[0].copy() if planar else self._face_n
+        # A planar parallelogram (the usual quad light) is sampled directly (:func:`sample_parallelogram`).
+        self._quad = (parallelogram(geometry.positions[geometry.faces[tris]], self.area) if planar and
+                      self.area > 0 else None)
         self._uv = (geometry.tri_uv[:, tris] if geometry.tri_uv is not None
                     else np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]).T.repeat(len(tris), axis=1))
 
@@ -100,8 +105,12 @@ class AreaEmitter(Emitter):
     def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
         """Sample a point uniformly by area and return the solid-angle sample seen from ``ref_p``."""
         n = len(u)
-        k = self._choose_triangles(u[:, 2])
-        wi, dist, dist2, cos_l, bu, bv = sample_triangle_points(self._pos, self._normal, self._nrm, k, u, ref_p)
+        textured = not self.radiance.constant
+        if self._quad is not None and not textured:
+            wi, dist, dist2, cos_l = sample_parallelogram(self._quad, self._normal, u, ref_p)
+        else:
+            k = self._choose_triangles(u[:, 2])
+            wi, dist, dist2, cos_l, bu, bv = sample_triangle_points(self._pos, self._normal, self._nrm, k, u, ref_p)
         # p_ω = ‖y − x‖² / (A |n_l·ω|) for front-facing light points, else 0. The test 0 < p_ω < ∞ also
         # rejects back faces (cos θ_l ≤ 0 gives p_ω ≤ 0, ∞ or NaN).
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -109,7 +118,7 @@ class AreaEmitter(Emitter):
         ok = (pdf > 0) & (pdf < np.inf)
         pdf = np.where(ok, pdf, 0.0)
         radiance = np.empty((n, 3), order="F")
-        if self.radiance.constant:
+        if not textured:
             value = self.radiance.value * self.scale
             for j in range(3):
                 np.multiply(ok, value[j], out=radiance[:, j])
@@ -180,25 +189,13 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
         Unit directions x → y (N, 3), distances, squared distances, n_l·(x − y)/‖x − y‖ with n_l the
         shading normal at y, and the barycentrics.
     """
-    n = len(u)
     u0, u1 = u[:, 0], u[:, 1]
     fold = u0 + u1 > 1.0
     b0 = np.where(fold, 1.0 - u0, u0)
     bu = np.where(fold, 1.0 - u1, u1)
     bv = 1.0 - b0
     bv -= bu
-    y = interp_cols(pos, k, bu, bv, 3)
-    px, py, pz = y[:, 0], y[:, 1], y[:, 2]
-    dx, dy, dz = px - ref_p[:, 0], py - ref_p[:, 1], pz - ref_p[:, 2]
-    dist2 = dx * dx
-    dist2 += dy * dy
-    dist2 += dz * dz
-    dist = np.sqrt(dist2)
-    inv = 1.0 / np.where(dist > 0, dist, 1.0)
-    wi = np.empty((n, 3), order="F")
-    np.multiply(dx, inv, out=wi[:, 0])
-    np.multiply(dy, inv, out=wi[:, 1])
-    np.multiply(dz, inv, out=wi[:, 2])
+    wi, dist, dist2 = _toward(interp_cols(pos, k, bu, bv, 3), ref_p)
     if nrm is None and face_n.ndim == 1:
         nx, ny, nz = face_n
     elif nrm is None:
@@ -212,6 +209,66 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
         nx, ny, nz = nx / ln, ny / ln, nz / ln
     cos_l = -(nx * wi[:, 0] + ny * wi[:, 1] + nz * wi[:, 2])
     return wi, dist, dist2, cos_l, bu, bv
+
+
+def sample_parallelogram(quad: tuple[np.ndarray, np.ndarray, np.ndarray], normal: np.ndarray, u: np.ndarray,
+                         ref_p: np.ndarray):
+    """Uniform points y = c + ξ1·e1 + ξ2·e2 on the parallelogram ``quad`` = (c, e1, e2) (unit normal
+    ``normal``) seen from ``ref_p``: the same density 1/A as choosing one of its two triangles by area
+    and folding, without the choice or a table gather.
+
+    Returns
+    -------
+    (wi, dist, dist², cos θ_l)
+        As :func:`sample_triangle_points`.
+    """
+    c, e1, e2 = quad
+    u0, u1 = u[:, 0], u[:, 1]
+    y = np.empty((len(u), 3), order="F")
+    for j in range(3):
+        col = y[:, j]
+        np.multiply(u0, e1[j], out=col)
+        col += u1 * e2[j]
+        col += c[j]
+    wi, dist, dist2 = _toward(y, ref_p)
+    cos_l = -(normal[0] * wi[:, 0] + normal[1] * wi[:, 1] + normal[2] * wi[:, 2])
+    return wi, dist, dist2, cos_l
+
+
+def _toward(y: np.ndarray, ref_p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit directions ``ref_p`` → ``y`` (0 where the points coincide), distances and squared distances."""
+    dx, dy, dz = y[:, 0] - ref_p[:, 0], y[:, 1] - ref_p[:, 1], y[:, 2] - ref_p[:, 2]
+    dist2 = dx * dx
+    dist2 += dy * dy
+    dist2 += dz * dz
+    dist = np.sqrt(dist2)
+    inv = 1.0 / np.where(dist > 0, dist, 1.0)
+    wi = np.empty((len(y), 3), order="F")
+    np.multiply(dx, inv, out=wi[:, 0])
+    np.multiply(dy, inv, out=wi[:, 1])
+    np.multiply(dz, inv, out=wi[:, 2])
+    return wi, dist, dist2
+
+
+def parallelogram(corners: np.ndarray, area: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(c, e1, e2) when two triangles ``corners`` (2, 3, 3) tile the parallelogram c + [0, 1]²·(e1, e2)
+    (they share an edge, which is its diagonal, and the diagonals bisect each other), else None."""
+    if corners.shape[0] != 2:
+        return None
+    t0, t1 = corners
+    size = max(float(np.abs(corners).max()), 1.0)
+    same = np.array([[np.allclose(a, b, rtol=0, atol=1e-9 * size) for b in t1] for a in t0])
+    if same.sum() != 2 or same.sum(axis=1).max() > 1:
+        return None
+    w0 = t0[np.flatnonzero(~same.any(axis=1))[0]]
+    w1 = t1[np.flatnonzero(~same.any(axis=0))[0]]
+    a, b = t0[same.any(axis=1)]
+    if not np.allclose(w0 + w1, a + b, rtol=0, atol=1e-9 * size):
+        return None
+    e1, e2 = a - w0, b - w0
+    if not np.isclose(np.linalg.norm(np.cross(e1, e2)), area, rtol=1e-9):
+        return None
+    return w0, e1, e2
 
 
 class AreaLightSet:

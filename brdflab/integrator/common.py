@@ -327,8 +327,16 @@ def area_light_set(scene) -> AreaLightSet | None:
     return cached
 
 
+def light_dims(scene) -> int:
+    """Uniforms per light sample (:func:`sample_lights`): 4 when an emitter is chosen before it is sampled,
+    3 for a single emitter or a fused :class:`AreaLightSet`."""
+    return 4 if len(scene.emitters) > 1 and area_light_set(scene) is None else 3
+
+
 def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
-    """Pick an emitter per point with ``u[:, 0]`` and sample it with ``u[:, 1:4]`` (no shadow rays yet)."""
+    """One emitter sample per point (no shadow rays yet), from :func:`light_dims` uniforms ``u``: with 4,
+    ``u[:, 0]`` picks the emitter and ``u[:, 1:4]`` samples it; with 3 they sample the only (or fused)
+    emitter."""
     m = len(sp.p)
     fused = area_light_set(scene)
     if m and fused is not None:
@@ -336,7 +344,7 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
         return LightSamples(wi, radiance, pdf, np.zeros(m, bool), dist)
     if m and len(scene.emitters) == 1:
         em = scene.emitters[0]
-        r = em.sample(sp.p, u[:, 1:4])
+        r = em.sample(sp.p, u)
         return LightSamples(r.wi, r.radiance, r.pdf * scene.emitter_pmf[0], np.full(m, em.is_delta), r.dist)
     wi = np.zeros((m, 3), order="F")
     wi[:, 2] = 1.0
@@ -412,5 +420,5 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
            "shading_points", "make_shading_points", "scene_tables", "sort_by_family", "by_group", "accumulate",
-           "any_positive", "rows",
-           "eval_bsdfs", "sample_bsdfs", "sample_lights", "add_light_samples", "emission_along", "choose_emitters"]
+           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights", "add_light_samples",
+           "emission_along", "choose_emitters"]

@@ -14,7 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, add_light_samples, eval_bsdfs, sample_lights, trace_camera
+from brdflab.integrator.common import (
+    Integrator,
+    add_light_samples,
+    eval_bsdfs,
+    light_dims,
+    sample_lights,
+    trace_camera,
+)
 
 
 class DirectEMS(Integrator):
@@ -27,7 +34,7 @@ class DirectEMS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0 or not scene.emitters:
             return L
-        ls = sample_lights(scene, sp, rng.random((len(sp.index), 4)))
+        ls = sample_lights(scene, sp, rng.random((len(sp.index), light_dims(scene))))
         wo = sp.local(ls.wi)
         f = eval_bsdfs(scene, sp, wo)
         # cos θ / p (0 for invalid samples, whose pdf is 0: dividing by ∞ instead gives 0 in one pass).

@@ -26,6 +26,7 @@ from brdflab.integrator.common import (
     accumulate,
     add_light_samples,
     eval_bsdfs,
+    light_dims,
     sample_lights,
     trace_camera,
 )
@@ -67,15 +68,16 @@ class DirectMIS(Integrator):
         m = len(sp.index)
         if m == 0:
             return L
-        u = rng.random((m, 7))
+        k = light_dims(scene)
+        u = rng.random((m, k + 3))
         if scene.emitters:
-            ls = sample_lights(scene, sp, u[:, :4])
+            ls = sample_lights(scene, sp, u[:, :k])
             wo = sp.local(ls.wi)
             f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
             w = np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta))
             with np.errstate(divide="ignore", invalid="ignore"):
                 scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) * w / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
             add_light_samples(scene, L, sp, ls, f, scale)
-        live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, 4:7])
+        live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
         accumulate(L, sp.index[live], weight, Le, mis_weight(p_b, p_l, self.beta))
         return L

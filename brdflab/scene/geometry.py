@@ -143,7 +143,8 @@ class Geometry:
         cr = np.cross(p1 - p0, p2 - p0)
         ln = np.linalg.norm(cr, axis=1)
         self.tri_area = 0.5 * ln
-        self.face_normals = cr / np.where(ln > 0, ln, 1.0)[:, None]
+        # (3, K): a batch's normals are one gather along axis 1 into contiguous rows (see interp_cols).
+        self.face_normal_cols = (cr / np.where(ln > 0, ln, 1.0)[:, None]).T.copy()
         # Per-triangle packed attributes, one column per triangle, gathered for a batch of hits in one call
         # (:func:`interp_cols`): p0, p1 − p0, p2 − p0 ...
         self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1).T.copy()
@@ -169,6 +170,11 @@ class Geometry:
             TriangleMesh(self._scene, self.positions.astype(np.float32), self.faces.astype(np.int32))
             # Build the BVH now (embreex commits lazily on the first query).
             self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+
+    @property
+    def face_normals(self) -> np.ndarray:
+        """(K, 3) unit face normals (winding order), a view of :attr:`face_normal_cols`."""
+        return self.face_normal_cols.T
 
     @property
     def triangle_count(self) -> int:
@@ -221,7 +227,6 @@ class Geometry:
         entry is a hit.
         """
         pr = prim if all_valid else np.where(valid, prim, 0)
-        n = len(pr)
 
         def interp(packed: np.ndarray, k: int) -> np.ndarray:
             return interp_cols(packed, pr, bu, bv, k)
@@ -229,15 +234,17 @@ class Geometry:
         p = interp(self.tri_pos, 3) if positions else None
         ng = None
         if positions or self.tri_nrm is None:
-            ng = np.empty((n, 3), order="F")
-            ng[:] = np.take(self.face_normals, pr, axis=0)
+            ng = np.take(self.face_normal_cols, pr, axis=1).T
         if self.tri_nrm is not None:
             ns = interp(self.tri_nrm, 3)
             ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
             bad = ~(ln > 0)
-            ln[bad] = 1.0
-            ns /= ln[:, None]
-            if bad.any():
+            fix = bool(bad.any())
+            if fix:
+                ln[bad] = 1.0
+            np.divide(1.0, ln, out=ln)
+            ns *= ln[:, None]
+            if fix:
                 ns[bad] = self.face_normals[pr[bad]]
         else:
             ns = ng
