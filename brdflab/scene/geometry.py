@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.math.frame import dot, stack_cols
+from brdflab.math.frame import dot, stack_cols, take_rows
 from brdflab.scene.obj import Mesh
 
 #: Relative ray epsilon (spec §7.2).
@@ -269,23 +269,34 @@ class Geometry:
         ``ng[i]``) along ``w[i]`` to the light point at ``dist[i]``, for the rows ``i`` in ``idx``.
 
         The same rays as :meth:`offset_origin`, :meth:`shadow_tmax` and :meth:`occluded` on the gathered
-        rows, built straight into Embree's float32 layout (no float64 intermediates).
+        rows, built straight into Embree's float32 layout (no float64 intermediates). When most rows are
+        traced, all are built and the float32 rays gathered (two row gathers instead of nine column gathers).
         """
-        n = len(idx)
+        n, m = len(idx), len(p)
         if n == 0 or not len(self.faces):
             return np.zeros(n, bool)
-        ng_c = [np.take(ng[:, j], idx) for j in range(3)]
-        w_c = [np.take(w[:, j], idx) for j in range(3)]
-        side = np.where(ng_c[0] * w_c[0] + ng_c[1] * w_c[1] + ng_c[2] * w_c[2] >= 0, self.eps, -self.eps)
+        if 5 * n >= 4 * m:
+            o32, d32 = self._offset_rays32(p, ng, w)
+            if n < m:
+                o32, d32, dist = np.take(o32, idx, axis=0), np.take(d32, idx, axis=0), np.take(dist, idx)
+        else:
+            o32, d32 = self._offset_rays32(*(take_rows(a, idx) for a in (p, ng, w)))
+            dist = np.take(dist, idx)
+        return self._occluded32(o32, d32, self.shadow_tmax(dist))
+
+    def _offset_rays32(self, p: np.ndarray, ng: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Float32 C-ordered (origins, directions) of the rays leaving surface points ``p`` along ``w``,
+        offset as in :meth:`offset_origin`."""
+        n = len(p)
+        side = np.where(dot(ng, w) >= 0, self.eps, -self.eps)
         o32 = np.empty((n, 3), np.float32)
         d32 = np.empty((n, 3), np.float32)
         for j in range(3):
-            c = ng_c[j]
-            c *= side
-            c += np.take(p[:, j], idx)
+            c = ng[:, j] * side
+            c += p[:, j]
             o32[:, j] = c
-            d32[:, j] = w_c[j]
-        return self._occluded32(o32, d32, self.shadow_tmax(np.take(dist, idx)))
+            d32[:, j] = w[:, j]
+        return o32, d32
 
     def _occluded32(self, o32: np.ndarray, d32: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         n = len(o32)
