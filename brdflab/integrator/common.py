@@ -293,7 +293,7 @@ def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, n
 
 @dataclass
 class LightSamples:
-    """One emitter sample per shading point, **before** the visibility test (:func:`add_light_samples`
+    """One emitter sample per shading point, **before** the visibility test (:func:`light_contributions`
     traces shadow rays only for the samples that would contribute)."""
 
     wi: np.ndarray
@@ -363,9 +363,9 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     return LightSamples(wi, radiance, pdf, delta, dist)
 
 
-def add_light_samples(scene, L: np.ndarray, sp: ShadingPoints, ls: LightSamples, f: np.ndarray,
-                      scale: np.ndarray) -> None:
-    """``L[camera ray] += L_e · f · scale`` for the light samples that are not occluded.
+def light_contributions(scene, sp: ShadingPoints, ls: LightSamples, f: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """(M, 3) ``L_e · f · scale`` of each point's light sample, in shading-point order; 0 where that is not
+    positive or the light is occluded.
 
     Shadow rays are traced only where the product is positive: a light below the surface's horizon
     (cos θ = 0), an invalid sample or a zero BSDF value needs no visibility test.
@@ -374,14 +374,20 @@ def add_light_samples(scene, L: np.ndarray, sp: ShadingPoints, ls: LightSamples,
     for j in range(3):
         np.multiply(ls.radiance[:, j], f[:, j], out=c[:, j])
         c[:, j] *= scale
-    live = np.flatnonzero(any_positive(c))
-    if len(live) == 0:
-        return
-    vis = live[~scene.geometry.shadow_occluded(sp.p, sp.ng, ls.wi, ls.dist, live)]
-    idx = np.take(sp.index, vis)
+    keep = any_positive(c)
+    live = np.flatnonzero(keep)
+    if len(live):
+        keep[live[scene.geometry.shadow_occluded(sp.p, sp.ng, ls.wi, ls.dist, live)]] = False
+    drop = ~keep
     for j in range(3):
-        col = L[:, j]
-        col[idx] = np.take(col, idx) + np.take(c[:, j], vis)
+        np.copyto(c[:, j], 0.0, where=drop)
+    return c
+
+
+def set_rows(L: np.ndarray, idx: np.ndarray, values: np.ndarray) -> None:
+    """``L[idx] = values`` channel by channel (1-D scatters into the Fortran-ordered ``L``)."""
+    for j in range(3):
+        L[:, j][idx] = values[:, j]
 
 
 def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -420,5 +426,6 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
            "shading_points", "make_shading_points", "scene_tables", "sort_by_family", "by_group", "accumulate",
-           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights", "add_light_samples",
+           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights", "light_contributions",
+           "set_rows",
            "emission_along", "choose_emitters"]

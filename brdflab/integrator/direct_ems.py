@@ -16,10 +16,11 @@ import numpy as np
 
 from brdflab.integrator.common import (
     Integrator,
-    add_light_samples,
     eval_bsdfs,
+    light_contributions,
     light_dims,
     sample_lights,
+    set_rows,
     trace_camera,
 )
 
@@ -39,5 +40,5 @@ class DirectEMS(Integrator):
         f = eval_bsdfs(scene, sp, wo)
         # cos θ / p (0 for invalid samples, whose pdf is 0: dividing by ∞ instead gives 0 in one pass).
         scale = np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, np.inf)
-        add_light_samples(scene, L, sp, ls, f, scale)
+        set_rows(L, sp.index, light_contributions(scene, sp, ls, f, scale))
         return L

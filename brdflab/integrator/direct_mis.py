@@ -24,10 +24,11 @@ import numpy as np
 from brdflab.integrator.common import (
     Integrator,
     accumulate,
-    add_light_samples,
     eval_bsdfs,
+    light_contributions,
     light_dims,
     sample_lights,
+    set_rows,
     trace_camera,
 )
 from brdflab.integrator.direct_mats import bsdf_rays
@@ -75,9 +76,12 @@ class DirectMIS(Integrator):
             wo = sp.local(ls.wi)
             f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
             w = np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                scale = np.where(ls.pdf > 0, np.maximum(wo[:, 2], 0.0) * w / np.where(ls.pdf > 0, ls.pdf, 1.0), 0.0)
-            add_light_samples(scene, L, sp, ls, f, scale)
+            # cos θ · w / p, 0 for invalid samples (pdf 0: dividing by ∞ gives 0).
+            scale = np.maximum(wo[:, 2], 0.0) * w / np.where(ls.pdf > 0, ls.pdf, np.inf)
+            Lsp = light_contributions(scene, sp, ls, f, scale)
+        else:
+            Lsp = np.zeros((m, 3), order="F")
         live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
-        accumulate(L, sp.index[live], weight, Le, mis_weight(p_b, p_l, self.beta))
+        accumulate(Lsp, live, weight, Le, mis_weight(p_b, p_l, self.beta))
+        set_rows(L, sp.index, Lsp)
         return L
