@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from brdflab.errors import BrdflabError
 from brdflab.math import transform as tf
 from brdflab.math import warps
-from brdflab.math.frame import dot, frame_from_normal, normalize, to_local, to_world
+from brdflab.math.frame import NormalFrames, dot, frame_from_normal, normalize, to_local, to_world
 from brdflab.scene.loader import load_scene
 from brdflab.scene.obj import load_obj
 from tests.conftest import CAMERA, QUAD_OBJ
@@ -110,6 +110,12 @@ def test_frames_orthonormal(n):
     assert abs(dot(s, t)[0]) < 1e-12
     w = np.array([[0.2, -0.5, 0.7]])
     np.testing.assert_allclose(to_world(to_local(w, s, t, n), s, t, n), w, atol=1e-12)
+    # The implicit frames of the render path are the same frames.
+    fr = NormalFrames(n)
+    np.testing.assert_allclose(fr.to_local(w), to_local(w, s, t, n), atol=1e-12)
+    np.testing.assert_allclose(fr.to_local(w, negate=True), -to_local(w, s, t, n), atol=1e-12)
+    np.testing.assert_allclose(fr.to_world(w), to_world(w, s, t, n), atol=1e-12)
+    np.testing.assert_allclose(fr.take(np.array([0])).to_world(fr.to_local(w)), w, atol=1e-12)
 
 
 @settings(max_examples=100, deadline=None)

@@ -15,7 +15,7 @@ import numpy as np
 
 from brdflab.bsdf.family import BSDFFamilies
 from brdflab.emitter.area import AreaLightSet
-from brdflab.math.frame import frame_from_normal, take_rows, to_local, to_world
+from brdflab.math.frame import NormalFrames, take_rows
 from brdflab.scene.geometry import Hits
 from brdflab.scene.properties import PropertyList
 
@@ -48,8 +48,8 @@ class ShadingPoints:
     p: np.ndarray
     ng: np.ndarray
     ns: np.ndarray
-    s: np.ndarray
-    t: np.ndarray
+    frames: NormalFrames
+    """The shading frames (s, t, n_s), applied without tangent arrays."""
     uv: np.ndarray
     wi: np.ndarray
     """(M, 3) local direction toward the camera."""
@@ -63,15 +63,11 @@ class ShadingPoints:
 
     def local(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
         """World directions → local shading frame (of the points ``sel``, default all)."""
-        if sel is None:
-            return to_local(w, self.s, self.t, self.ns)
-        return to_local(w, take_rows(self.s, sel), take_rows(self.t, sel), take_rows(self.ns, sel))
+        return (self.frames if sel is None else self.frames.take(sel)).to_local(w)
 
     def world(self, w: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
         """Local directions → world (for the points ``sel``, default all)."""
-        if sel is None:
-            return to_world(w, self.s, self.t, self.ns)
-        return to_world(w, take_rows(self.s, sel), take_rows(self.t, sel), take_rows(self.ns, sel))
+        return (self.frames if sel is None else self.frames.take(sel)).to_world(w)
 
 
 def background(scene, d: np.ndarray) -> np.ndarray:
@@ -97,6 +93,9 @@ class SceneTables:
     """True when some material has a texture, so shading points need their uvs."""
     has_emitter_meshes: bool
     """True when some mesh emits (camera rays can hit an emitter)."""
+    family_smooth: np.ndarray
+    """(families,) True when some mesh of the family has vertex normals that are not all its face normals
+    (its hits interpolate them; see :class:`~brdflab.scene.geometry.Geometry`)."""
 
 
 #: :attr:`SceneTables.tri_code` of triangles on emitters and of misses.
@@ -114,7 +113,10 @@ def scene_tables(scene) -> SceneTables:
         mesh_code = np.where(mesh_emitter >= 0, CODE_EMITTER, fams.mesh_family)
         tri_code = np.append(mesh_code[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), CODE_MISS)
         bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
-        tab = SceneTables(fams, tri_emitter, tri_code, bsdf_uv, bool(np.any(mesh_emitter >= 0)))
+        smooth = np.zeros(len(fams.families), bool)
+        mesh_smooth = scene.geometry.mesh_smooth
+        np.logical_or.at(smooth, fams.mesh_family[: len(mesh_smooth)], mesh_smooth)
+        tab = SceneTables(fams, tri_emitter, tri_code, bsdf_uv, bool(np.any(mesh_emitter >= 0)), smooth)
         scene.__dict__["_tables"] = tab
     return tab
 
@@ -167,7 +169,9 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
             for e, sel in by_group(np.take(tab.tri_emitter, h.prim)):
                 L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
     idx, groups = sort_by_family(code, len(tab.bsdf_families.families))
-    return L, make_shading_points(scene, g.surface(rh, idx, uv=tab.bsdf_uv), take_rows(d, idx), idx, groups)
+    smooth = [sl for f, sl in groups if tab.family_smooth[f]]
+    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=None if len(smooth) == len(groups) else smooth)
+    return L, make_shading_points(scene, h, take_rows(d, idx), idx, groups)
 
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
@@ -185,11 +189,11 @@ def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray,
                         groups: list[tuple[int, slice]]) -> ShadingPoints:
     """:class:`ShadingPoints` of the (already compacted, family-sorted) hits ``h`` of rays ``d``, camera
     indices ``idx``, family slices ``groups`` (:func:`sort_by_family`)."""
-    s, t = frame_from_normal(h.ns)
-    wi = to_local(-d, s, t, h.ns)
+    frames = NormalFrames(h.ns)
+    wi = frames.to_local(d, negate=True)
     fams = scene_tables(scene).bsdf_families
     member = np.take(fams.mesh_member, h.mesh) if fams.any_tables else None
-    return ShadingPoints(idx, h.p, h.ng, h.ns, s, t, h.uv, wi, groups, member)
+    return ShadingPoints(idx, h.p, h.ng, h.ns, frames, h.uv, wi, groups, member)
 
 
 def bound_bsdfs(scene, sp: ShadingPoints):

@@ -10,6 +10,14 @@ Orthonormal Basis, Revisited" (JCGT 6(1), 2017, listing 3): σ = sign(n_z), a = 
 b = n_x n_y a, s = (1 + σ n_x² a, σ b, −σ n_x), t = (b, σ + n_y² a, −n_y). Nori builds its tangents
 differently (spec §7.2), but only the normal matters for the isotropic BSDFs in brdflab, and this form
 needs no square roots or branches.
+
+The tangents are affine in (n_x, n_y) once σ and a are known, so :class:`NormalFrames` keeps a batch of
+frames as (n, σ, a) only and applies them directly: with w = n_x v_x + n_y v_y and q = a·w − v_z,
+
+    (v·s, v·t, v·n) = (v_x + σ n_x q,  σ v_y + n_y q,  w + n_z v_z),
+
+and back, with r = σ n_x v_x + n_y v_y and k = a·r + v_z: (v_x + n_x k, σ v_y + n_y k, n_z v_z − r). That
+is 12 products per transform and 4 per frame, against 15 and 18 with explicit tangent arrays.
 """
 
 from __future__ import annotations
@@ -72,6 +80,73 @@ def frame_from_normal(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     t[:, 1] += sign
     np.negative(ny, out=t[:, 2])
     return s, t
+
+
+class NormalFrames:
+    """The frames (s, t, n) of a batch of unit normals ``n`` (N, 3), kept as (n, σ, a) (module docstring).
+
+    Parameters
+    ----------
+    n
+        (N, 3) unit normals.
+    """
+
+    def __init__(self, n: np.ndarray, sign: np.ndarray | None = None, a: np.ndarray | None = None) -> None:
+        self.n = n
+        if sign is None:
+            nz = n[:, 2]
+            sign = np.copysign(1.0, nz)
+            a = sign + nz
+            np.divide(-1.0, a, out=a)
+        self.sign, self.a = sign, a
+
+    def take(self, sel: np.ndarray) -> NormalFrames:
+        """The frames of the rows ``sel``."""
+        return NormalFrames(take_rows(self.n, sel), np.take(self.sign, sel), np.take(self.a, sel))
+
+    def tangents(self) -> tuple[np.ndarray, np.ndarray]:
+        """Explicit (s, t), as :func:`frame_from_normal` (for tests and reports)."""
+        return frame_from_normal(self.n)
+
+    def to_local(self, v: np.ndarray, negate: bool = False) -> np.ndarray:
+        """(v·s, v·t, v·n) per row, Fortran-ordered; of −v with ``negate``."""
+        nx, ny, nz = self.n[:, 0], self.n[:, 1], self.n[:, 2]
+        vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
+        out = np.empty(v.shape, order="F")
+        w = nx * vx
+        w += ny * vy
+        q = self.a * w
+        q -= vz
+        x, y, z = out[:, 0], out[:, 1], out[:, 2]
+        np.multiply(self.sign, nx, out=x)
+        x *= q
+        x += vx
+        np.multiply(self.sign, vy, out=y)
+        y += ny * q
+        np.multiply(nz, vz, out=z)
+        z += w
+        if negate:
+            np.negative(out, out=out)
+        return out
+
+    def to_world(self, v: np.ndarray) -> np.ndarray:
+        """Local vectors ``v`` (N, 3) back to world space, Fortran-ordered."""
+        nx, ny, nz = self.n[:, 0], self.n[:, 1], self.n[:, 2]
+        vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
+        out = np.empty(v.shape, order="F")
+        r = self.sign * nx
+        r *= vx
+        r += ny * vy
+        k = self.a * r
+        k += vz
+        x, y, z = out[:, 0], out[:, 1], out[:, 2]
+        np.multiply(nx, k, out=x)
+        x += vx
+        np.multiply(self.sign, vy, out=y)
+        y += ny * k
+        np.multiply(nz, vz, out=z)
+        z -= r
+        return out
 
 
 def to_local(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:

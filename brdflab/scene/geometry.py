@@ -150,12 +150,22 @@ class Geometry:
         self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1).T.copy()
         tri_has_n = self.mesh_has_normals[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         tri_has_uv = self.mesh_has_uvs[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
-        # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none) ...
+        # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none). A
+        # triangle whose vertex normals all point along its face normal (a flat wall written with vn lines)
+        # shades with the face normal; meshes with none other are *flat* (their hits skip the interpolation).
         self.tri_nrm = None
+        self.mesh_smooth = np.zeros(len(meshes), bool)
         if tri_has_n.any():
             n0, n1, n2 = (np.where(tri_has_n[:, None], self.normals[self.faces[:, k]], self.face_normals)
                           for k in range(3))
-            self.tri_nrm = np.concatenate([n0, n1 - n0, n2 - n0], axis=1).T.copy()
+            fn = self.face_normals
+            bent = np.zeros(len(fn), bool)
+            for nk in (n0, n1, n2):
+                unit = nk / np.maximum(np.linalg.norm(nk, axis=1), 1e-300)[:, None]
+                bent |= np.abs(unit - fn).max(axis=1) > 1e-9
+            self.mesh_smooth = np.bincount(self.tri_mesh, bent, minlength=len(meshes)) > 0
+            if bent.any():
+                self.tri_nrm = np.concatenate([n0, n1 - n0, n2 - n0], axis=1).T.copy()
         # ... and uv0, uv1 − uv0, uv2 − uv0 ((0,0), (1,0), (0,1) where the mesh has no vt: uv = (u, v)).
         self.tri_uv = None
         if tri_has_uv.any():
@@ -212,19 +222,23 @@ class Geometry:
         return self.hit_records(rh.valid, rh.prim, rh.u.astype(np.float64), rh.v.astype(np.float64),
                                 rh.t.astype(np.float64), positions)
 
-    def surface(self, rh: RayHits, idx: np.ndarray, positions: bool = True, uv: bool = True) -> Hits:
-        """Reconstruct the hits ``idx`` (all valid) of a :meth:`trace`; with ``uv=False``, ``uv`` is None."""
+    def surface(self, rh: RayHits, idx: np.ndarray, positions: bool = True, uv: bool = True,
+                smooth: list[slice] | None = None) -> Hits:
+        """Reconstruct the hits ``idx`` (all valid) of a :meth:`trace`; with ``uv=False``, ``uv`` is None.
+        ``smooth`` lists the slices of ``idx`` that may lie on meshes with vertex normals (None: all may);
+        the other hits' shading normal is their face normal, without interpolation."""
         return self.hit_records(np.ones(len(idx), bool), np.take(rh.prim, idx), np.take(rh.u, idx).astype(np.float64),
                                 np.take(rh.v, idx).astype(np.float64), np.take(rh.t, idx).astype(np.float64),
-                                positions, uv, all_valid=True)
+                                positions, uv, all_valid=True, smooth=smooth)
 
     def hit_records(self, valid: np.ndarray, prim: np.ndarray, bu: np.ndarray, bv: np.ndarray,
-                    t: np.ndarray, positions: bool = True, uv: bool = True, all_valid: bool = False) -> Hits:
+                    t: np.ndarray, positions: bool = True, uv: bool = True, all_valid: bool = False,
+                    smooth: list[slice] | None = None) -> Hits:
         """Reconstruct positions, normals and uvs from triangle ids and barycentrics (spec §7.2).
 
         With barycentrics (1 − u − v, u, v): p = p0 + u(p1 − p0) + v(p2 − p0), likewise for normals
         (then renormalised) and uvs. ``uv=False`` skips the uvs (None); ``all_valid`` promises that every
-        entry is a hit.
+        entry is a hit; ``smooth`` as in :meth:`surface`.
         """
         pr = prim if all_valid else np.where(valid, prim, 0)
 
@@ -233,21 +247,17 @@ class Geometry:
 
         p = interp(self.tri_pos, 3) if positions else None
         ng = None
-        if positions or self.tri_nrm is None:
+        if positions or self.tri_nrm is None or smooth is not None:
             ng = np.take(self.face_normal_cols, pr, axis=1).T
-        if self.tri_nrm is not None:
-            ns = interp(self.tri_nrm, 3)
-            ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
-            bad = ~(ln > 0)
-            fix = bool(bad.any())
-            if fix:
-                ln[bad] = 1.0
-            np.divide(1.0, ln, out=ln)
-            ns *= ln[:, None]
-            if fix:
-                ns[bad] = self.face_normals[pr[bad]]
-        else:
+        if self.tri_nrm is None or smooth == []:
             ns = ng
+        elif smooth is None:
+            ns = self._shading_normals(pr, bu, bv)
+        else:
+            ns = np.empty((len(pr), 3), order="F")
+            ns[:] = ng
+            for sl in smooth:
+                ns[sl] = self._shading_normals(pr[sl], bu[sl], bv[sl])
         if not uv:
             uv = None
         else:
@@ -256,6 +266,20 @@ class Geometry:
             return Hits(valid, t, p, ng, ns, uv, prim, np.take(self.tri_mesh, pr))
         mesh = np.where(valid, np.take(self.tri_mesh, pr), -1)
         return Hits(valid, np.where(valid, t, np.inf), p, ng, ns, uv, np.where(valid, prim, -1), mesh)
+
+    def _shading_normals(self, pr: np.ndarray, bu: np.ndarray, bv: np.ndarray) -> np.ndarray:
+        """Interpolated vertex normals of triangles ``pr``, renormalised (the face normal where that fails)."""
+        ns = interp_cols(self.tri_nrm, pr, bu, bv, 3)
+        ln = np.sqrt(ns[:, 0] ** 2 + ns[:, 1] ** 2 + ns[:, 2] ** 2)
+        bad = ~(ln > 0)
+        fix = bool(bad.any())
+        if fix:
+            ln[bad] = 1.0
+        np.divide(1.0, ln, out=ln)
+        ns *= ln[:, None]
+        if fix:
+            ns[bad] = self.face_normals[pr[bad]]
+        return ns
 
     def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """True where something blocks o + t·d for 0 ≤ t ≤ tmax."""
