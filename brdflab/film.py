@@ -95,11 +95,18 @@ class Camera:
         o = np.empty((n, 3), order="F")
         near = length * self.near  # t_min = near / d̂_z, applied by moving the origin along the ray
         for j in range(3):
+            # d_j = (m_j0 x + m_j1 y + m_j2)/‖·‖, skipping the zero entries of the (often axis-aligned) matrix.
             c = d[:, j]
-            np.multiply(x, m[j, 0], out=c)
-            c += y * m[j, 1]
-            c += m[j, 2]
-            c *= inv_len
+            terms = [(v, m[j, k]) for k, v in ((0, x), (1, y)) if m[j, k] != 0.0]
+            if terms:
+                np.multiply(terms[0][0], terms[0][1], out=c)
+                for v, mk in terms[1:]:
+                    c += v * mk
+                if m[j, 2] != 0.0:
+                    c += m[j, 2]
+                c *= inv_len
+            else:
+                np.multiply(inv_len, m[j, 2], out=c)
             oc = o[:, j]
             np.multiply(c, near, out=oc)
             oc += origin[j]

@@ -86,16 +86,16 @@ class SceneTables:
     """(triangles + 1,) emitter index of each triangle's mesh, −1 for none; the extra last entry (−1) is
     what a miss (primID −1) reads."""
     tri_code: np.ndarray
-    """(triangles + 1,) what a camera ray that hits the triangle does: the material family of its mesh
-    (≥ 0, shade it), :data:`CODE_EMITTER` (its mesh emits: return L_e) or, in the extra last entry,
-    :data:`CODE_MISS`."""
+    """(triangles + 1,) what a camera ray that hits the triangle does: shade it (code 2·family + smooth ≥ 0,
+    with the material family of its mesh and smooth = 1 when the mesh interpolates vertex normals, see
+    :class:`~brdflab.scene.geometry.Geometry`), return L_e (:data:`CODE_EMITTER`) or, in the extra last
+    entry, :data:`CODE_MISS`."""
+    codes: list[int]
+    """The shading codes (≥ 0) that occur in :attr:`tri_code`, ascending."""
     bsdf_uv: bool
     """True when some material has a texture, so shading points need their uvs."""
     has_emitter_meshes: bool
     """True when some mesh emits (camera rays can hit an emitter)."""
-    family_smooth: np.ndarray
-    """(families,) True when some mesh of the family has vertex normals that are not all its face normals
-    (its hits interpolate them; see :class:`~brdflab.scene.geometry.Geometry`)."""
 
 
 #: :attr:`SceneTables.tri_code` of triangles on emitters and of misses.
@@ -110,40 +110,40 @@ def scene_tables(scene) -> SceneTables:
         fams = BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf)
         mesh_emitter = np.asarray(scene.mesh_emitter, np.int64)
         tri_emitter = np.append(mesh_emitter[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), -1)
-        mesh_code = np.where(mesh_emitter >= 0, CODE_EMITTER, fams.mesh_family)
+        mesh_code = np.where(mesh_emitter >= 0, CODE_EMITTER, 2 * fams.mesh_family[: len(mesh_emitter)] +
+                             scene.geometry.mesh_smooth)
         tri_code = np.append(mesh_code[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), CODE_MISS)
+        codes = sorted(int(c) for c in set(mesh_code.tolist()) if c >= 0)
         bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
-        smooth = np.zeros(len(fams.families), bool)
-        mesh_smooth = scene.geometry.mesh_smooth
-        np.logical_or.at(smooth, fams.mesh_family[: len(mesh_smooth)], mesh_smooth)
-        tab = SceneTables(fams, tri_emitter, tri_code, bsdf_uv, bool(np.any(mesh_emitter >= 0)), smooth)
+        tab = SceneTables(fams, tri_emitter, tri_code, codes, bsdf_uv, bool(np.any(mesh_emitter >= 0)))
         scene.__dict__["_tables"] = tab
     return tab
 
 
-def sort_by_family(family: np.ndarray, n_families: int) -> tuple[np.ndarray, list[tuple[int, slice]]]:
-    """Indices of the entries with ``family`` ≥ 0, grouped by family (ascending index within one), and
-    the (family, slice) of each non-empty group in that order. Negative entries are left out.
+def sort_by_code(code: np.ndarray, codes: list[int]) -> tuple[np.ndarray, list[tuple[int, slice]]]:
+    """Indices of the entries with ``code`` ≥ 0, grouped by code (ascending index within one), and the
+    (code, slice) of each non-empty group in that order; ``codes`` lists the codes that can occur,
+    ascending. Negative entries are left out.
 
-    One pass for a single family, one comparison per family for up to 8, a stable argsort beyond.
+    One pass for a single code, one comparison per code for up to 8, a stable (radix) argsort beyond.
     """
-    if n_families <= 8:
-        if n_families == 1:
-            parts = [np.flatnonzero(family >= 0)]
+    if len(codes) <= 8:
+        if len(codes) == 1:
+            parts = [np.flatnonzero(code >= 0)]
         else:
-            parts = [np.flatnonzero(family == g) for g in range(n_families)]
+            parts = [np.flatnonzero(code == c) for c in codes]
         sizes = [len(p) for p in parts]
-        order = parts[0] if n_families == 1 else np.concatenate(parts)
+        order = parts[0] if len(codes) == 1 else np.concatenate(parts)
     else:
-        order = np.argsort(family, kind="stable")
-        order = order[np.searchsorted(np.take(family, order), 0):]
-        sizes = np.bincount(np.take(family, order), minlength=n_families)
-    groups, start = [], 0
-    for g, c in enumerate(sizes):
-        if c:
-            groups.append((g, slice(start, start + int(c))))
-            start += int(c)
-    return order, groups
+        order = np.argsort(code.astype(np.int16), kind="stable")
+        order = order[np.searchsorted(np.take(code, order), 0):]
+        sizes = np.bincount(np.take(code, order), minlength=codes[-1] + 1)[codes]
+    runs, start = [], 0
+    for c, size in zip(codes, sizes, strict=True):
+        if size:
+            runs.append((int(c), slice(start, start + int(size))))
+            start += int(size)
+    return order, runs
 
 
 def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple[np.ndarray, ShadingPoints]:
@@ -168,9 +168,17 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
             d_lit = take_rows(d, lit)
             for e, sel in by_group(np.take(tab.tri_emitter, h.prim)):
                 L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
-    idx, groups = sort_by_family(code, len(tab.bsdf_families.families))
-    smooth = [sl for f, sl in groups if tab.family_smooth[f]]
-    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=None if len(smooth) == len(groups) else smooth)
+    # Shading points sorted by material family, and within a family flat meshes before smooth ones (only
+    # those interpolate vertex normals).
+    idx, runs = sort_by_code(code, tab.codes)
+    groups: list[tuple[int, slice]] = []
+    for c, sl in runs:
+        if groups and groups[-1][0] == c >> 1:
+            groups[-1] = (c >> 1, slice(groups[-1][1].start, sl.stop))
+        else:
+            groups.append((c >> 1, sl))
+    smooth = [sl for c, sl in runs if c & 1]
+    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=None if len(smooth) == len(runs) else smooth)
     return L, make_shading_points(scene, h, take_rows(d, idx), idx, groups)
 
 
@@ -178,7 +186,7 @@ def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> Shading
     """Compact the hits ``idx`` of rays with directions ``d`` into :class:`ShadingPoints` (sorted by
     material family: ``index`` says which ray each point belongs to)."""
     fams = scene_tables(scene).bsdf_families
-    order, groups = sort_by_family(np.take(fams.mesh_family, np.take(hits.mesh, idx)), len(fams.families))
+    order, groups = sort_by_code(np.take(fams.mesh_family, np.take(hits.mesh, idx)), list(range(len(fams.families))))
     idx = np.take(idx, order)
     h = Hits(np.take(hits.valid, idx), np.take(hits.t, idx), take_rows(hits.p, idx), take_rows(hits.ng, idx),
              take_rows(hits.ns, idx), take_rows(hits.uv, idx), np.take(hits.prim, idx), np.take(hits.mesh, idx))
@@ -188,7 +196,7 @@ def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> Shading
 def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray,
                         groups: list[tuple[int, slice]]) -> ShadingPoints:
     """:class:`ShadingPoints` of the (already compacted, family-sorted) hits ``h`` of rays ``d``, camera
-    indices ``idx``, family slices ``groups`` (:func:`sort_by_family`)."""
+    indices ``idx``, family slices ``groups`` (:func:`sort_by_code`)."""
     frames = NormalFrames(h.ns)
     wi = frames.to_local(d, negate=True)
     fams = scene_tables(scene).bsdf_families
@@ -232,7 +240,7 @@ def by_group(ids: np.ndarray):
 
 
 def rows(a: np.ndarray | None, sel) -> np.ndarray | None:
-    """``a[sel]`` for a selector of :func:`by_group` or :func:`sort_by_family`: a view for a slice, else a
+    """``a[sel]`` for a selector of :func:`by_group` or :func:`sort_by_code`: a view for a slice, else a
     gather (None stays None)."""
     if a is None:
         return None
@@ -429,7 +437,7 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
-           "shading_points", "make_shading_points", "scene_tables", "sort_by_family", "by_group", "accumulate",
+           "shading_points", "make_shading_points", "scene_tables", "sort_by_code", "by_group", "accumulate",
            "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights", "light_contributions",
            "set_rows",
            "emission_along", "choose_emitters"]
