@@ -4,6 +4,8 @@
   table built from the wrong weights is rejected.
 * A quad light is sampled as one parallelogram: uniform by area (chi-square, with a negative control),
   the same pdf as the triangle path.
+* Shading points interpolate vertex normals only on meshes whose normals are bent, and match fully
+  reconstructed hits.
 * Material families (one batched call per material type) reproduce the per-material evaluation.
 * Parallel workers (forked processes, or the thread fallback) give the image of one in-process worker, bit
   for bit, and count the rays they trace.
@@ -186,3 +188,27 @@ def test_parallelogram_detection(tmp_path):
     s = _quad_light_scene(tmp_path, "v -1 2 -1\nv -0.5 2 1\nv 0.5 2 1\nv 1 2 -1\n")
     assert s.emitters[0]._quad is None
     assert load_scene(ROOT / "scenes/cbox/cbox_spheres.xml").emitters[0]._quad is not None
+
+
+def test_shading_points_skip_interpolation_only_where_normals_are_flat():
+    """Meshes whose vertex normals are their face normals (the Cornell box walls are written with vn lines)
+    shade with the face normal without interpolating; the bent wall and the spheres interpolate. The
+    shading points match fully reconstructed hits either way."""
+    from brdflab.integrator.common import trace_camera
+
+    s = load_scene(ROOT / "scenes/cbox/cbox_spheres.xml", "direct_ems")
+    g = s.geometry
+    assert g.mesh_smooth.any() and not g.mesh_smooth.all()
+    cam = s.camera
+    ys, xs = np.mgrid[0:cam.height:4, 0:cam.width:4] + 0.5
+    o, d, tmax = cam.generate_rays(xs.ravel(), ys.ravel())
+    _, sp = trace_camera(s, o, d, tmax)
+    full = g.intersect(o, d, tmax)
+    np.testing.assert_allclose(sp.ns, full.ns[sp.index], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(sp.p, full.p[sp.index])
+    # Both kinds occur, and the smooth meshes' normals do vary over a triangle.
+    smooth = g.mesh_smooth[full.mesh[sp.index]]
+    assert smooth.any() and not smooth.all()
+    tri_n = g.face_normals[full.prim[sp.index]]
+    assert np.abs(sp.ns - tri_n)[smooth].max() > 1e-3
+    assert np.abs(sp.ns - tri_n)[~smooth].max() < 1e-12
