@@ -196,7 +196,7 @@ class Film:
     """
 
     def __init__(self, width: int, height: int, filt: Filter, x0: int = 0, y0: int = 0,
-                 w: int | None = None, h: int | None = None) -> None:
+                 w: int | None = None, h: int | None = None, data: np.ndarray | None = None) -> None:
         self.width, self.height, self.filter = width, height, filt
         self.border = int(np.ceil(filt.radius)) + 1
         self.x0, self.y0 = x0, y0
@@ -204,7 +204,7 @@ class Film:
         self.h = height if h is None else h
         b = self.border
         self.bw, self.bh = self.w + 2 * b, self.h + 2 * b
-        self.data = np.zeros((4, self.bh, self.bw))
+        self.data = np.zeros((4, self.bh, self.bw)) if data is None else data
 
     def splat(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
         """Add samples at continuous image positions (sx, sy) with RGB ``values`` (N, 3)."""
