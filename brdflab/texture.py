@@ -40,6 +40,14 @@ class Texture:
         """Luminance Y (Rec. 709 / sRGB weights) per uv: (N,), or a float for a constant texture."""
         return self.eval(uv) @ LUMINANCE
 
+    def scaled(self, uv: np.ndarray | None, w: np.ndarray) -> np.ndarray:
+        """``eval(uv) · w[:, None]``, (N, 3) Fortran-ordered (``uv`` may be None for constant textures)."""
+        vals = self.eval(uv)
+        out = np.empty((len(w), 3), order="F")
+        for j in range(3):
+            np.multiply(vals[:, j], w, out=out[:, j])
+        return out
+
 
 class ConstantTexture(Texture):
     """A constant colour."""
@@ -52,6 +60,13 @@ class ConstantTexture(Texture):
     def eval(self, uv: np.ndarray) -> np.ndarray:
         """Return the constant colour broadcast to (N, 3)."""
         return np.broadcast_to(self.value, (len(uv), 3))
+
+    def scaled(self, uv: np.ndarray | None, w: np.ndarray) -> np.ndarray:
+        """``value · w[:, None]``, (N, 3) Fortran-ordered (no broadcast array)."""
+        out = np.empty((len(w), 3), order="F")
+        for j in range(3):
+            np.multiply(w, self.value[j], out=out[:, j])
+        return out
 
     def mean(self) -> np.ndarray:
         """Return the colour itself."""
@@ -90,6 +105,16 @@ class PointValues(Texture):
         if len(uv) != len(self.index):
             raise ValueError(f"PointValues holds {len(self.index)} points, asked for {len(uv)}")
         return self._gathered()
+
+    def scaled(self, uv: np.ndarray | None, w: np.ndarray) -> np.ndarray:
+        """Each point's colour times ``w``, (N, 3) Fortran-ordered (one gather per channel)."""
+        if self._values is not None:
+            return super().scaled(uv, w)
+        out = np.empty((len(self.index), 3), order="F")
+        for j in range(3):
+            np.take(self.table[j], self.index, out=out[:, j])
+            out[:, j] *= w
+        return out
 
     def _gathered(self) -> np.ndarray:
         if self._values is None:

@@ -39,7 +39,7 @@ class Diffuse(BSDF):
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """f = albedo/π where both directions are above the surface."""
         ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return self.albedo.eval(uv_or_zeros(uv, len(wi))) * (ok * warps.INV_PI)[:, None]
+        return self.albedo.scaled(uv if self.albedo.constant else uv_or_zeros(uv, len(wi)), ok * warps.INV_PI)
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """cos θo/π for cos θi > 0 (cosine-weighted hemisphere)."""

@@ -80,11 +80,11 @@ class RoughConductor(BSDF):
             co = wo[:, 2]
             ok = (ci > 0) & (co > 0) & okh
             g = smith_g1(wi, wh, a, hi) * smith_g1(wo, wh, a)
-            fr = fresnel_schlick(np.clip(hi, 0.0, 1.0), self.R0.eval(uv_or_zeros(uv, n)))
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(ok, d * g / (4.0 * ci * co), 0.0)
             s = np.where(np.isfinite(s), s, 0.0)
-            f = fr * s[:, None]
+            r0 = self.R0.value if self.R0.constant else self.R0.eval(uv_or_zeros(uv, n))
+            f = fresnel_schlick(np.clip(hi, 0.0, 1.0), r0, s)
         if need_pdf:
             ok = (ci > 0) & okh & (hi > 0)
             pdf = np.where(ok, reflection_pdf(wh, wo, a, d), 0.0)

@@ -324,7 +324,7 @@ class Geometry:
 
     def _occluded32(self, o32: np.ndarray, d32: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         n = len(o32)
-        dist = np.minimum(np.asarray(tmax, np.float64), T_INF).astype(np.float32)
+        dist = np.minimum(tmax, T_INF).astype(np.float32)
         t0 = time.perf_counter()  # only the embreex call counts as time in Embree
         r = self._scene.run(o32, d32, dists=np.ascontiguousarray(dist), query="OCCLUDED")
         self.stats.add(n, time.perf_counter() - t0)
@@ -341,5 +341,8 @@ class Geometry:
         return out
 
     def shadow_tmax(self, dist: np.ndarray) -> np.ndarray:
-        """Shadow-ray length that stops just before a light point at ``dist`` (inf stays inf)."""
-        return np.where(np.isfinite(dist), dist * (1.0 - 1e-3) - self.eps, T_INF)
+        """Shadow-ray length that stops just before a light point at ``dist`` (inf gives Embree's
+        infinity, :data:`T_INF`)."""
+        t = dist * (1.0 - 1e-3)
+        t -= self.eps
+        return np.minimum(t, T_INF, out=t)
