@@ -152,6 +152,9 @@ class Filter:
         # Phase tables for the separable splat (see the module docstring).
         phases = FILTER_TABLE / radius
         self.phases = int(round(phases)) if abs(phases - round(phases)) < 1e-9 else 0
+        #: log₂ of the phase count when it is a power of two (the default filters: 16, 32, 64), else None.
+        self.phase_bits = (self.phases.bit_length() - 1 if self.phases and self.phases & (self.phases - 1) == 0
+                           else None)
         if self.phases:
             c = (np.arange(self.phases) + 0.5) / self.phases
             self.phase_offset = np.ceil(c - radius).astype(np.int64)
@@ -221,14 +224,26 @@ class Film:
     def _taps(self, s: np.ndarray, origin: int, extent: int) -> tuple[np.ndarray, np.ndarray]:
         """First tap (buffer coordinate, clipped) and phase of continuous positions ``s`` on one axis."""
         f = self.filter
-        q = s - 0.5
-        fq = np.floor(q)
-        ph = ((q - fq) * f.phases).astype(np.intp)
-        np.minimum(ph, f.phases - 1, out=ph)
-        first = fq.astype(np.intp)
-        first += np.take(f.phase_offset, ph)
-        first += self.border - origin
-        np.clip(first, 0, extent - f.phase_taps, out=first)
+        if f.phase_bits is not None:
+            # 2^k phases: ⌊(s − ½)·P⌋ = ⌊q⌋·P + phase exactly (scaling by a power of two is exact), so one
+            # floor gives both, split by a shift and a mask.
+            t = s * f.phases
+            t -= 0.5 * f.phases
+            np.floor(t, out=t)
+            it = t.astype(np.intp)
+            ph = it & (f.phases - 1)
+            first = it >> f.phase_bits
+        else:
+            q = s - 0.5
+            fq = np.floor(q)
+            ph = ((q - fq) * f.phases).astype(np.intp)
+            np.minimum(ph, f.phases - 1, out=ph)
+            first = fq.astype(np.intp)
+        first += np.take(f.phase_offset + (self.border - origin), ph)
+        # Samples inside the film's region never leave the buffer (its border is ⌈r⌉ + 1); the clamp only
+        # guards stray positions (np.clip's Python wrapper costs more than the two ufuncs).
+        np.maximum(first, 0, out=first)
+        np.minimum(first, extent - f.phase_taps, out=first)
         return first, ph
 
     def _splat_separable(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:

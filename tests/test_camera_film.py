@@ -73,3 +73,19 @@ def test_tile_films_add_up_to_whole_film():
         tile.splat(sx[m], sy[m], vals[m])
         merged.add(tile)
     np.testing.assert_allclose(merged.image(), whole.image(), rtol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["gaussian", "mitchell", "tent", "box"])
+def test_power_of_two_phase_split_matches_the_general_one(kind):
+    """The shift-and-mask tap computation (2^k phases) gives the taps and phases of the general one,
+    including samples on pixel centres and tile edges."""
+    f = Filter(kind)
+    assert f.phase_bits is not None
+    film = Film(200, 100, f, 40, 30, 32, 32)
+    s = np.concatenate([40 + np.random.default_rng(0).random(50_000) * 32,
+                        [40.0, 40.5, 41.0, 55.5, 56.0, np.nextafter(72.0, 0.0)]])
+    fast = film._taps(s, film.x0, film.bw)
+    f.phase_bits = None
+    slow = film._taps(s, film.x0, film.bw)
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)
