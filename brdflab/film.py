@@ -75,7 +75,11 @@ class Camera:
         return cls(w, h, fov, near, far, props.get_transform("toWorld", Transform()))
 
     def generate_rays(self, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rays through continuous pixel positions; returns (origins, unit directions, tmax)."""
+        """Rays through continuous pixel positions; returns (origins, unit directions, tmax).
+
+        The origins are float32 and C-ordered, the layout Embree takes (they serve only as ray origins);
+        the directions are float64, Fortran-ordered.
+        """
         a = self.width / self.height
         t = np.tan(np.radians(self.fov) * 0.5)
         xf = self.to_world if self.to_world is not None else Transform()
@@ -92,7 +96,7 @@ class Camera:
         inv_len = 1.0 / length
         n = len(px)
         d = np.empty((n, 3), order="F")
-        o = np.empty((n, 3), order="F")
+        o = np.empty((n, 3), np.float32)
         near = length * self.near  # t_min = near / d̂_z, applied by moving the origin along the ray
         for j in range(3):
             # d_j = (m_j0 x + m_j1 y + m_j2)/‖·‖, skipping the zero entries of the (often axis-aligned) matrix.
@@ -107,9 +111,9 @@ class Camera:
                 c *= inv_len
             else:
                 np.multiply(inv_len, m[j, 2], out=c)
-            oc = o[:, j]
-            np.multiply(c, near, out=oc)
+            oc = c * near
             oc += origin[j]
+            o[:, j] = oc
         length *= self.far - self.near
         return o, d, length
 

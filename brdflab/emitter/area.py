@@ -197,8 +197,8 @@ def sample_triangle_points(pos: np.ndarray, face_n: np.ndarray, nrm: np.ndarray 
     bv -= bu
     wi, dist, dist2 = _toward(interp_cols(pos, k, bu, bv, 3), ref_p)
     if nrm is None and face_n.ndim == 1:
-        nx, ny, nz = face_n
-    elif nrm is None:
+        return wi, dist, dist2, _cos_light(face_n, wi), bu, bv
+    if nrm is None:
         g = np.take(face_n, k, axis=0)
         nx, ny, nz = g[:, 0], g[:, 1], g[:, 2]
     else:
@@ -231,8 +231,18 @@ def sample_parallelogram(quad: tuple[np.ndarray, np.ndarray, np.ndarray], normal
         col += u1 * e2[j]
         col += c[j]
     wi, dist, dist2 = _toward(y, ref_p)
-    cos_l = -(normal[0] * wi[:, 0] + normal[1] * wi[:, 1] + normal[2] * wi[:, 2])
-    return wi, dist, dist2, cos_l
+    return wi, dist, dist2, _cos_light(normal, wi)
+
+
+def _cos_light(normal: np.ndarray, wi: np.ndarray) -> np.ndarray:
+    """−n·ω for one normal (3,) and directions (N, 3), skipping zero components (axis-aligned lights)."""
+    terms = [j for j in range(3) if normal[j] != 0.0]
+    if not terms:
+        return np.zeros(len(wi))
+    out = wi[:, terms[0]] * -normal[terms[0]]
+    for j in terms[1:]:
+        out -= normal[j] * wi[:, j]
+    return out
 
 
 def _toward(y: np.ndarray, ref_p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -357,7 +357,8 @@ def sample_lights(scene, sp: ShadingPoints, u: np.ndarray) -> LightSamples:
     if m and len(scene.emitters) == 1:
         em = scene.emitters[0]
         r = em.sample(sp.p, u)
-        return LightSamples(r.wi, r.radiance, r.pdf * scene.emitter_pmf[0], np.full(m, em.is_delta), r.dist)
+        pmf = scene.emitter_pmf[0]
+        return LightSamples(r.wi, r.radiance, r.pdf if pmf == 1.0 else r.pdf * pmf, np.full(m, em.is_delta), r.dist)
     wi = np.zeros((m, 3), order="F")
     wi[:, 2] = 1.0
     radiance = np.zeros((m, 3), order="F")

@@ -68,7 +68,10 @@ def interp_cols(packed: np.ndarray, idx: np.ndarray, bu: np.ndarray, bv: np.ndar
 
 def rows_f32(a: np.ndarray) -> np.ndarray:
     """(N, 3) float32 C-ordered copy for embreex, filled column by column (2.5× faster than
-    ``np.ascontiguousarray(a, np.float32)`` from the Fortran-ordered float64 arrays of the hot path)."""
+    ``np.ascontiguousarray(a, np.float32)`` from the Fortran-ordered float64 arrays of the hot path);
+    an array already in that layout is returned as it is."""
+    if a.dtype == np.float32 and a.flags.c_contiguous:
+        return a
     out = np.empty((len(a), 3), np.float32)
     for j in range(3):
         out[:, j] = a[:, j]
