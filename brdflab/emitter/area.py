@@ -226,9 +226,15 @@ def sample_parallelogram(quad: tuple[np.ndarray, np.ndarray, np.ndarray], normal
     u0, u1 = u[:, 0], u[:, 1]
     y = np.empty((len(u), 3), order="F")
     for j in range(3):
+        # y_j = c_j + ξ1 e1_j + ξ2 e2_j, skipping zero edge components (axis-aligned quads).
         col = y[:, j]
-        np.multiply(u0, e1[j], out=col)
-        col += u1 * e2[j]
+        terms = [(v, e[j]) for v, e in ((u0, e1), (u1, e2)) if e[j] != 0.0]
+        if not terms:
+            col[:] = c[j]
+            continue
+        np.multiply(terms[0][0], terms[0][1], out=col)
+        for v, ej in terms[1:]:
+            col += v * ej
         col += c[j]
     wi, dist, dist2 = _toward(y, ref_p)
     return wi, dist, dist2, _cos_light(normal, wi)
@@ -252,7 +258,7 @@ def _toward(y: np.ndarray, ref_p: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     dist2 += dy * dy
     dist2 += dz * dz
     dist = np.sqrt(dist2)
-    inv = 1.0 / np.where(dist > 0, dist, 1.0)
+    inv = 1.0 / np.maximum(dist, np.finfo(np.float64).tiny)  # coincident points: 0 · 1/tiny = 0
     wi = np.empty((len(y), 3), order="F")
     np.multiply(dx, inv, out=wi[:, 0])
     np.multiply(dy, inv, out=wi[:, 1])
