@@ -10,12 +10,15 @@ Workers are **forked processes** (they inherit the loaded scene and its Embree B
 returns only its small tile film and its ray counters). Threads were measured first: a unit of 16 k
 samples makes ~800 NumPy calls of ~10 µs, and with the GIL held between (and during some of) them two
 threads reached only 1.3–1.6× one; two forked workers reach 1.7–1.9× one (bench scenes). Off Linux the
-pool falls back to threads. A forked worker gets :data:`TASK_UNITS` consecutive units per task and
-returns their tile films together: per message the main process spends ~0.45 ms of CPU (futures, pipes,
-unpickling), which with one unit per task took 9 % of the two cores (Cornell box, 2 workers: 0.92 s of
-main-process CPU in a 5.3 s render; 8 units per task: 0.34 s, and 6 % more samples per second). At most
-:data:`IN_FLIGHT` tasks per worker are queued, so a stop request (Ctrl-C, ``time_limit``) takes effect
-within about one task (8 units, ~40 ms on the bench scenes).
+pool falls back to threads.
+
+On two cores the main process's CPU time is taken from the workers, so it is kept small: a forked worker
+gets :data:`TASK_UNITS` consecutive units per task (one message per task; with one unit per task the
+futures and pipes took 9 % of the two cores), and writes their tile films into a shared-memory slot of the
+task (mapped before the workers fork) instead of pickling them through a pipe. Cornell box, 2 workers:
+main-process CPU 0.92 s per render with one unit per task, 0.35 s with 8, 0.21 s with shared slots. At
+most :data:`IN_FLIGHT` tasks per worker are queued, so a stop request (Ctrl-C, ``time_limit``) takes
+effect within about one task (8 units, ~40 ms on the bench scenes).
 
 Units hold about :data:`UNIT_SAMPLES` camera samples: small enough that a batch's ~20 live float64 columns
 stay in the 2 MiB per-core L2 cache (measured on the Cornell box, one worker: 65 k samples 1.71 M
@@ -30,6 +33,7 @@ from __future__ import annotations
 
 import functools
 import math
+import mmap
 import multiprocessing
 import os
 import signal
@@ -167,6 +171,8 @@ def _pixel_offsets(w: int, h: int, spp: int) -> tuple[np.ndarray, np.ndarray]:
 
 #: The scene of the render in progress, inherited by forked workers (see :func:`_process_units`).
 _FORK_SCENE = None
+#: Shared-memory result slots of the forked workers, one per task in flight (see :func:`_results`).
+_FORK_SLOTS: np.ndarray | None = None
 _FORK_LOCK = threading.Lock()
 
 
@@ -176,15 +182,20 @@ def _worker_init() -> None:
     _FORK_SCENE.geometry.stats = RayStats()  # a fresh lock: the parent's may have been held at fork
 
 
-def _process_units(batch: list[tuple]) -> list[tuple[np.ndarray, int, int, int, float]]:
-    """Units in a forked worker: per unit (tile film data, samples, dropped, rays, seconds in Embree)."""
+def _process_units(batch: list[tuple], slot: int) -> list[tuple[int, int, int, int, float]]:
+    """Units in a forked worker. Their tile films go, one after the other, into the shared result slot
+    ``slot``; returns per unit (offset in the slot, samples, dropped, rays, seconds in Embree)."""
     scene = _FORK_SCENE
     st = scene.geometry.stats
-    out = []
+    buf = _FORK_SLOTS[slot]
+    out, off = [], 0
     for u in batch:
         st.reset()
         film, n, dropped = _render_unit(scene, *u)
-        out.append((film.data, n, dropped, st.rays, st.seconds))
+        size = film.data.size
+        buf[off:off + size] = film.data.ravel()
+        out.append((off, n, dropped, st.rays, st.seconds))
+        off += size
     return out
 
 
@@ -213,10 +224,18 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
             film, n, dropped = _render_unit(scene, *u, seed)
             yield film, n, dropped, 0, 0.0
         return
-    global _FORK_SCENE
+    global _FORK_SCENE, _FORK_SLOTS
+    border = Film(1, 1, scene.filter).border
     with _FORK_LOCK if forked else nullcontext():
+        free: deque = deque()
         if forked:
             _FORK_SCENE = scene
+            # Tile films come back through shared memory (mapped before the workers fork), not pickled
+            # through a pipe: that took a third of the main process's CPU time.
+            slot_len = TASK_UNITS * max(4 * (u[2][3] + 2 * border) * (u[2][2] + 2 * border) for u in units)
+            n_slots = IN_FLIGHT * workers
+            _FORK_SLOTS = np.frombuffer(mmap.mmap(-1, n_slots * slot_len * 8), np.float64).reshape(n_slots, slot_len)
+            free.extend(range(n_slots))
         try:
             pending: deque = deque()
             k = TASK_UNITS if forked else 1
@@ -224,25 +243,34 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
 
             def submit() -> None:
                 b = next(todo, None)
-                if b is not None:
-                    pending.append((b, pool.submit(_process_units, [(*u, seed) for u in b]) if forked
-                                    else pool.submit(_render_unit, scene, *b[0], seed)))
+                if b is None:
+                    return
+                if forked:
+                    slot = free.popleft()
+                    pending.append((b, slot, pool.submit(_process_units, [(*u, seed) for u in b], slot)))
+                else:
+                    pending.append((b, None, pool.submit(_render_unit, scene, *b[0], seed)))
 
             for _ in range(IN_FLIGHT * workers):
                 submit()
             while pending and not halt.is_set():
-                b, fut = pending.popleft()
+                b, slot, fut = pending.popleft()
                 res = fut.result()
-                submit()
                 if forked:
-                    for u, (data, n, dropped, rays, secs) in zip(b, res, strict=True):
+                    for u, (off, n, dropped, rays, secs) in zip(b, res, strict=True):
                         x0, y0, w, h = u[2]
+                        shape = (4, h + 2 * border, w + 2 * border)
+                        data = _FORK_SLOTS[slot, off:off + shape[0] * shape[1] * shape[2]].reshape(shape)
+                        # The consumer adds the tile before asking for the next one; the slot is reused
+                        # only after the whole task has been consumed.
                         yield Film(cam.width, cam.height, scene.filter, x0, y0, w, h, data), n, dropped, rays, secs
+                    free.append(slot)
                 else:
                     yield (*res, 0, 0.0)
+                submit()
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-            _FORK_SCENE = None
+            _FORK_SCENE = _FORK_SLOTS = None
 
 
 def render(
