@@ -58,6 +58,10 @@ UNIT_SAMPLES = 1 << 14
 IN_FLIGHT = 3
 #: Units per task sent to a forked worker (fewer messages for the main process to handle).
 TASK_UNITS = 8
+#: Samples per pixel of a pass when no intermediate images are asked for: a 16 k-sample unit then covers
+#: 16 × 16 pixels, whose tile film (22 × 22 with the filter's border) is a third of a 16-spp unit's (38 × 38):
+#: less to splat, transfer and merge per sample (Cornell box, 2 workers, 64 spp: 4.94 → 4.75 s).
+BATCH_PASS = 64
 #: Workers are forked processes on Linux; elsewhere threads (macOS system libraries are not fork-safe).
 FORK_WORKERS = sys.platform.startswith("linux")
 
@@ -309,7 +313,7 @@ def render(
     progressive
         Passes of 1, 1, 2, 4, … samples (a checkpoint at every power of two). Default: only when
         ``on_pass``, ``checkpoints`` or ``time_limit`` ask for intermediate images; otherwise passes of
-        16 samples per pixel. The pass sizes are part of the random-number layout: an image is
+        :data:`BATCH_PASS` samples per pixel. The pass sizes are part of the random-number layout: an image is
         reproducible for the same scene, seed, sample count and schedule.
 
     Returns
@@ -327,7 +331,8 @@ def render(
     units = []
     if progressive is None:
         progressive = on_pass is not None or bool(checkpoints) or time_limit is not None
-    sizes = pass_schedule(spp, checkpoints=checkpoints, progressive=progressive)
+    sizes = pass_schedule(spp, max_pass=16 if progressive else BATCH_PASS, checkpoints=checkpoints,
+                          progressive=progressive)
     for p, size in enumerate(sizes):
         for t, tile in enumerate(tiles_for(cam.width, cam.height, size)):
             units.append((p, t, tile, size))
