@@ -212,3 +212,21 @@ def test_shading_points_skip_interpolation_only_where_normals_are_flat():
     tri_n = g.face_normals[full.prim[sp.index]]
     assert np.abs(sp.ns - tri_n)[smooth].max() > 1e-3
     assert np.abs(sp.ns - tri_n)[~smooth].max() < 1e-12
+
+
+@pytest.mark.parametrize("n_codes", [1, 3, 12])
+def test_sort_by_code_groups_stably(n_codes):
+    """Both paths of sort_by_code (comparisons for ≤ 8 codes, radix argsort beyond) return the entries with
+    code ≥ 0 grouped by code, in ascending index order within a group, with the right slices."""
+    from brdflab.integrator.common import sort_by_code
+
+    rng = np.random.default_rng(n_codes)
+    codes = sorted(rng.choice(40, n_codes, replace=False).tolist())
+    code = rng.choice(codes + [-1, -2], 5000)
+    order, runs = sort_by_code(code, codes)
+    keep = np.flatnonzero(code >= 0)
+    np.testing.assert_array_equal(order, keep[np.argsort(code[keep], kind="stable")])
+    assert [c for c, _ in runs] == sorted(set(code[keep].tolist()))
+    for c, sl in runs:
+        assert np.all(code[order[sl]] == c)
+    assert runs[-1][1].stop == len(keep)
