@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.math.frame import sparse_combination
 from brdflab.math.transform import Transform
 from brdflab.scene.properties import PropertyList
 
@@ -99,18 +100,9 @@ class Camera:
         o = np.empty((n, 3), np.float32)
         near = length * self.near  # t_min = near / d̂_z, applied by moving the origin along the ray
         for j in range(3):
-            # d_j = (m_j0 x + m_j1 y + m_j2)/‖·‖, skipping the zero entries of the (often axis-aligned) matrix.
-            c = d[:, j]
-            terms = [(v, m[j, k]) for k, v in ((0, x), (1, y)) if m[j, k] != 0.0]
-            if terms:
-                np.multiply(terms[0][0], terms[0][1], out=c)
-                for v, mk in terms[1:]:
-                    c += v * mk
-                if m[j, 2] != 0.0:
-                    c += m[j, 2]
-                c *= inv_len
-            else:
-                np.multiply(inv_len, m[j, 2], out=c)
+            # d_j = (m_j0 x + m_j1 y + m_j2)/‖·‖ (zero matrix entries skipped).
+            c = sparse_combination((x, y), (m[j, 0], m[j, 1]), m[j, 2], out=d[:, j])
+            c *= inv_len
             oc = c * near
             oc += origin[j]
             o[:, j] = oc

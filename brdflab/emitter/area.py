@@ -25,7 +25,7 @@ import numpy as np
 
 from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math.distribution import AliasTable
-from brdflab.math.frame import dot
+from brdflab.math.frame import dot, sparse_combination
 from brdflab.scene.geometry import interp_cols
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import LUMINANCE, Texture, as_texture
@@ -226,29 +226,14 @@ def sample_parallelogram(quad: tuple[np.ndarray, np.ndarray, np.ndarray], normal
     u0, u1 = u[:, 0], u[:, 1]
     y = np.empty((len(u), 3), order="F")
     for j in range(3):
-        # y_j = c_j + ξ1 e1_j + ξ2 e2_j, skipping zero edge components (axis-aligned quads).
-        col = y[:, j]
-        terms = [(v, e[j]) for v, e in ((u0, e1), (u1, e2)) if e[j] != 0.0]
-        if not terms:
-            col[:] = c[j]
-            continue
-        np.multiply(terms[0][0], terms[0][1], out=col)
-        for v, ej in terms[1:]:
-            col += v * ej
-        col += c[j]
+        sparse_combination((u0, u1), (e1[j], e2[j]), c[j], out=y[:, j])  # axis-aligned quads skip zeros
     wi, dist, dist2 = _toward(y, ref_p)
     return wi, dist, dist2, _cos_light(normal, wi)
 
 
 def _cos_light(normal: np.ndarray, wi: np.ndarray) -> np.ndarray:
-    """−n·ω for one normal (3,) and directions (N, 3), skipping zero components (axis-aligned lights)."""
-    terms = [j for j in range(3) if normal[j] != 0.0]
-    if not terms:
-        return np.zeros(len(wi))
-    out = wi[:, terms[0]] * -normal[terms[0]]
-    for j in terms[1:]:
-        out -= normal[j] * wi[:, j]
-    return out
+    """−n·ω for one normal (3,) and directions (N, 3) (zero components skipped)."""
+    return sparse_combination((wi[:, 0], wi[:, 1], wi[:, 2]), -normal)
 
 
 def _toward(y: np.ndarray, ref_p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -397,6 +397,25 @@ def light_contributions(scene, sp: ShadingPoints, ls: LightSamples, f: np.ndarra
     return c
 
 
+def light_term(scene, sp: ShadingPoints, u: np.ndarray, mis=None) -> np.ndarray:
+    """(M, 3) emitter-sampling estimate per shading point, L_e · f · cos θ / p (· w), in shading-point order.
+
+    One light sample per point from the :func:`light_dims` uniforms ``u``; ``mis(ls, p_bsdf)``, when given,
+    returns the samples' MIS weights w from the light samples and the BSDF's density of their directions.
+    Invalid samples (pdf 0) give 0: dividing by ∞ instead of p does that in one pass.
+    """
+    ls = sample_lights(scene, sp, u)
+    wo = sp.local(ls.wi)
+    scale = np.maximum(wo[:, 2], 0.0)
+    if mis is None:
+        f = eval_bsdfs(scene, sp, wo)
+    else:
+        f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
+        scale *= mis(ls, p_bsdf)
+    scale /= np.where(ls.pdf > 0, ls.pdf, np.inf)
+    return light_contributions(scene, sp, ls, f, scale)
+
+
 def set_rows(L: np.ndarray, idx: np.ndarray, values: np.ndarray) -> None:
     """``L[idx] = values`` channel by channel (1-D scatters into the Fortran-ordered ``L``)."""
     for j in range(3):
@@ -439,6 +458,5 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
 
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
            "shading_points", "make_shading_points", "scene_tables", "sort_by_code", "by_group", "accumulate",
-           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights", "light_contributions",
-           "set_rows",
-           "emission_along", "choose_emitters"]
+           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights",
+           "light_contributions", "light_term", "set_rows", "emission_along", "choose_emitters"]

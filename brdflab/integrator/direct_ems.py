@@ -14,15 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import (
-    Integrator,
-    eval_bsdfs,
-    light_contributions,
-    light_dims,
-    sample_lights,
-    set_rows,
-    trace_camera,
-)
+from brdflab.integrator.common import Integrator, light_dims, light_term, set_rows, trace_camera
 
 
 class DirectEMS(Integrator):
@@ -35,10 +27,5 @@ class DirectEMS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0 or not scene.emitters:
             return L
-        ls = sample_lights(scene, sp, rng.random((len(sp.index), light_dims(scene))))
-        wo = sp.local(ls.wi)
-        f = eval_bsdfs(scene, sp, wo)
-        # cos θ / p (0 for invalid samples, whose pdf is 0: dividing by ∞ instead gives 0 in one pass).
-        scale = np.maximum(wo[:, 2], 0.0) / np.where(ls.pdf > 0, ls.pdf, np.inf)
-        set_rows(L, sp.index, light_contributions(scene, sp, ls, f, scale))
+        set_rows(L, sp.index, light_term(scene, sp, rng.random((len(sp.index), light_dims(scene)))))
         return L

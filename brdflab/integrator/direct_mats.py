@@ -40,7 +40,7 @@ def bsdf_rays(scene, sp, u: np.ndarray):
     live = np.flatnonzero(any_positive(weight))
     d = sp.world(take_rows(wo, live), live)
     d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
-    o = scene.geometry.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), d)
+    o = scene.geometry.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), d, f32=True)
     Le, pdf_light = emission_along(scene, o, d)
     return live, take_rows(weight, live), np.take(pdf, live), Le, pdf_light
 

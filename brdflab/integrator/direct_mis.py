@@ -24,10 +24,8 @@ import numpy as np
 from brdflab.integrator.common import (
     Integrator,
     accumulate,
-    eval_bsdfs,
-    light_contributions,
     light_dims,
-    sample_lights,
+    light_term,
     set_rows,
     trace_camera,
 )
@@ -72,13 +70,8 @@ class DirectMIS(Integrator):
         k = light_dims(scene)
         u = rng.random((m, k + 3))
         if scene.emitters:
-            ls = sample_lights(scene, sp, u[:, :k])
-            wo = sp.local(ls.wi)
-            f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
-            w = np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta))
-            # cos θ · w / p, 0 for invalid samples (pdf 0: dividing by ∞ gives 0).
-            scale = np.maximum(wo[:, 2], 0.0) * w / np.where(ls.pdf > 0, ls.pdf, np.inf)
-            Lsp = light_contributions(scene, sp, ls, f, scale)
+            Lsp = light_term(scene, sp, u[:, :k],
+                             lambda ls, p_bsdf: np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta)))
         else:
             Lsp = np.zeros((m, 3), order="F")
         live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])

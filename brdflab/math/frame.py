@@ -41,6 +41,24 @@ def take_rows(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return out
 
 
+def sparse_combination(cols: tuple[np.ndarray, ...], coefs, const: float = 0.0,
+                       out: np.ndarray | None = None) -> np.ndarray:
+    """Σ_k coefs[k]·cols[k] + const for 1-D arrays ``cols`` and scalar ``coefs``, skipping the zero
+    coefficients (an axis-aligned camera or light has mostly zeros); into ``out`` when given."""
+    terms = [(c, k) for c, k in zip(cols, coefs, strict=True) if k != 0.0]
+    if out is None:
+        out = np.empty(len(cols[0]))
+    if not terms:
+        out[:] = const
+        return out
+    np.multiply(terms[0][0], terms[0][1], out=out)
+    for c, k in terms[1:]:
+        out += c * k
+    if const != 0.0:
+        out += const
+    return out
+
+
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of two (N, 3) arrays (column products: faster than einsum here)."""
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]

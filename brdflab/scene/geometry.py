@@ -201,6 +201,7 @@ class Geometry:
         if n == 0 or not len(self.faces):
             z = np.zeros(n, np.float32)
             return RayHits(np.zeros(n, bool), np.full(n, -1, np.int64), z, z, np.full(n, np.inf, np.float32))
+        # A copy: embreex writes the hit distances into the array it is given.
         dists = None if tmax is None else np.broadcast_to(np.asarray(tmax, np.float32), (n,)).copy()
         o32, d32 = rows_f32(o), rows_f32(d)
         t0 = time.perf_counter()  # only the embreex call counts as time in Embree
@@ -303,27 +304,13 @@ class Geometry:
         if n == 0 or not len(self.faces):
             return np.zeros(n, bool)
         if 5 * n >= 4 * m:
-            o32, d32 = self._offset_rays32(p, ng, w)
+            o32, d32 = self.offset_origin(p, ng, w, f32=True), rows_f32(w)
             if n < m:
                 o32, d32, dist = np.take(o32, idx, axis=0), np.take(d32, idx, axis=0), np.take(dist, idx)
         else:
-            o32, d32 = self._offset_rays32(*(take_rows(a, idx) for a in (p, ng, w)))
-            dist = np.take(dist, idx)
+            p, ng, w = (take_rows(a, idx) for a in (p, ng, w))
+            o32, d32, dist = self.offset_origin(p, ng, w, f32=True), rows_f32(w), np.take(dist, idx)
         return self._occluded32(o32, d32, self.shadow_tmax(dist))
-
-    def _offset_rays32(self, p: np.ndarray, ng: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Float32 C-ordered (origins, directions) of the rays leaving surface points ``p`` along ``w``,
-        offset as in :meth:`offset_origin`."""
-        n = len(p)
-        side = np.where(dot(ng, w) >= 0, self.eps, -self.eps)
-        o32 = np.empty((n, 3), np.float32)
-        d32 = np.empty((n, 3), np.float32)
-        for j in range(3):
-            c = ng[:, j] * side
-            c += p[:, j]
-            o32[:, j] = c
-            d32[:, j] = w[:, j]
-        return o32, d32
 
     def _occluded32(self, o32: np.ndarray, d32: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         n = len(o32)
@@ -334,13 +321,15 @@ class Geometry:
         return r != -1
 
     # -- robust ray construction ------------------------------------------------------------------
-    def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """Move ``p`` off its surface along ±n_g, to the side ``d`` leaves toward."""
+    def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray, f32: bool = False) -> np.ndarray:
+        """Move ``p`` off its surface along ±n_g, to the side ``d`` leaves toward. With ``f32`` the result
+        is in Embree's float32 C-ordered layout (for rays traced right away), else float64 Fortran-ordered."""
         side = np.where(dot(ng, d) >= 0, self.eps, -self.eps)
-        out = np.empty(p.shape, order="F")
+        out = np.empty(p.shape, np.float32) if f32 else np.empty(p.shape, order="F")
         for j in range(3):
-            np.multiply(ng[:, j], side, out=out[:, j])
-            out[:, j] += p[:, j]
+            c = ng[:, j] * side
+            c += p[:, j]
+            out[:, j] = c
         return out
 
     def shadow_tmax(self, dist: np.ndarray) -> np.ndarray:
