@@ -1,7 +1,8 @@
 """Entry point of the ``brdflab`` command.
 
-Sub-commands live in ``cli/<name>_cmd.py`` modules; each exposes ``register(subparsers)`` which adds its
-parser and sets ``func`` (a callable taking the parsed arguments and returning an exit status).
+Sub-commands live in ``cli/<name>_cmd.py`` modules (installed as ``brdflab.cli.<name>_cmd``); each exposes
+``register(subparsers)`` which adds its parser and sets ``func`` (a callable taking the parsed arguments and
+returning an exit status).
 User errors (:class:`brdflab.errors.BrdflabError`) are printed as one line without a traceback and give
 exit status 2; ``--debug`` shows the traceback.
 """
@@ -12,6 +13,7 @@ import argparse
 import importlib
 import sys
 
+from brdflab import __version__
 from brdflab.errors import BrdflabError
 
 #: Sub-command modules, in the order they appear in ``--help``. Missing modules are skipped.
@@ -25,16 +27,23 @@ def build_parser() -> argparse.ArgumentParser:
         description="BRDF validation and visualisation workbench for Nori scenes.",
     )
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks for errors")
+    parser.add_argument("--version", action="version", version=f"brdflab {__version__}",
+                        help="print the brdflab version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
         try:
-            mod = importlib.import_module(f"cli.{name}_cmd")
+            mod = importlib.import_module(f"brdflab.cli.{name}_cmd")
         except ModuleNotFoundError as exc:
-            if exc.name == f"cli.{name}_cmd":
+            if exc.name == f"brdflab.cli.{name}_cmd":
                 continue
             raise
         mod.register(sub)
+    for sub_parser in sub.choices.values():
+        # ``brdflab render --debug scene.xml`` works as well as ``brdflab --debug render scene.xml``; SUPPRESS keeps
+        # the sub-parser from resetting a --debug given before the sub-command.
+        sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                                help="show Python tracebacks for errors")
     return parser
 
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from brdflab.cli.main import main
 from brdflab.errors import BrdflabError
 from brdflab.scene.loader import load_scene
-from cli.main import main
 
 BAD = Path(__file__).parent / "bad_scenes"
 CASES = sorted(BAD.glob("*.xml"))

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
+from brdflab.cli.main import main
 from brdflab.errors import ImageError
 from brdflab.imageio import write_exr
 from brdflab.report.metrics import compare
-from cli.main import main
 
 
 def test_hand_computed_values():

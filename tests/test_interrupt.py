@@ -22,7 +22,7 @@ def _big_scene(tmp_path):
 def test_ctrl_c_writes_partial_image(tmp_path):
     scene = _big_scene(tmp_path)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "render", str(scene), "--spp", "100000"],
+    proc = subprocess.Popen([sys.executable, "-m", "brdflab.cli.main", "render", str(scene), "--spp", "100000"],
                             stderr=subprocess.PIPE, text=True, env=env, cwd=os.getcwd())
     # Wait until at least one pass is done (progress lines appear every few seconds; give it time).
     time.sleep(6.0)
@@ -42,7 +42,7 @@ def test_ctrl_c_writes_partial_image(tmp_path):
 
 
 def test_time_limit_renders_whole_passes(tmp_path):
-    from cli.main import main
+    from brdflab.cli.main import main
 
     scene = _big_scene(tmp_path)
     t0 = time.perf_counter()

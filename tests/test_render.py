@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from brdflab.cli.main import main
 from brdflab.imageio import read_exr
 from brdflab.render import pass_schedule, render
 from brdflab.scene.loader import load_scene
-from cli.main import main
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 
 LIGHT_OBJ = """v -1 1 -1

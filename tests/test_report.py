@@ -10,8 +10,8 @@ import subprocess
 
 import pytest
 
+from brdflab.cli.main import main
 from brdflab.report.variance import Checkpoint, time_to_reach
-from cli.main import main
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 from tests.test_render import LIGHT_OBJ
 

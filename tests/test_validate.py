@@ -9,10 +9,10 @@ import pytest
 from brdflab.bsdf.diffuse import Diffuse
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
+from brdflab.cli.main import main
 from brdflab.validate import chi2 as c2
 from brdflab.validate import consistency, furnace, stability
 from brdflab.validate.battery import ALPHAS, THETAS, NoJacobianConductor, plan, run_battery, run_chi2
-from cli.main import main
 
 N = 40_000
 
