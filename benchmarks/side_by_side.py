@@ -11,6 +11,10 @@ Usage (with brdflab's own environment active)::
   by Mitsuba (``benchmarks/mitsuba/run_mitsuba.py``, a fresh process per variant) in every round; the
   order alternates between rounds so that drift in machine load affects both. Only the render is timed
   (no scene loading, BVH build or JIT compilation). Both use every core.
+* brdflab is also timed as users run it: a whole ``brdflab render SCENE --spp N`` process (start-up,
+  load, BVH, render, EXR + PNG write), reported as samples/s over that wall time (``brdflab_whole``) and
+  compared with Mitsuba's render call alone. The course scenes (``../shared/scenes``, skipped when
+  absent) are among the cases.
 * Prints a table of median samples/s and the ratio brdflab / Mitsuba per variant — the headline figure —
   and writes ``benchmarks/results/side_by_side.json`` plus a Markdown table for the README.
 """
@@ -37,7 +41,7 @@ sys.path.insert(0, str(HERE / "mitsuba"))
 
 from translate import translate  # noqa: E402
 
-from brdflab.bench import CASES, mesh1m_scene  # noqa: E402
+from brdflab.bench import CASES, case_scene, whole_process_seconds  # noqa: E402
 
 VENV = HERE / ".venv-mitsuba"
 MITSUBA_PY = VENV / "bin" / "python"
@@ -72,11 +76,10 @@ def find_llvm() -> str | None:
 def scene_paths(case: str, integrator: str) -> tuple[Path, Path]:
     """(brdflab scene, Mitsuba translation) of a bench case, writing the translation if needed."""
     rel, _ = CASES[case]
-    if rel == "<generated>":
-        scene = mesh1m_scene(ROOT / ".bench-cache")
+    scene = case_scene(case)
+    if rel.startswith(("<", "..")):  # generated or course scenes: translations stay out of the repository
         out = ROOT / ".bench-cache" / "mitsuba" / f"{case}_{integrator}.xml"
     else:
-        scene = ROOT / rel
         out = HERE / "mitsuba" / f"{case}_{integrator}.xml"
     translate(scene, integrator, out)
     return scene, out
@@ -87,7 +90,14 @@ def run_brdflab(scene: Path, integrator: str, spp: int, case: str) -> dict:
     cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integrator, str(spp), "1", "0", case]
     out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True)
     rec = json.loads(out.stdout.strip().splitlines()[-1])
-    return rec["runs"][0] | {"load_seconds": rec["load_seconds"], "triangles": rec["triangles"]}
+    return rec["runs"][0] | {"load_seconds": rec["load_seconds"], "triangles": rec["triangles"],
+                             "width": rec["width"], "height": rec["height"], "fixed": rec.get("fixed", {})}
+
+
+def run_brdflab_whole(scene: Path, integrator: str, spp: int, pixels: int) -> dict:
+    """One whole ``brdflab render`` process; samples/s over its wall time."""
+    seconds = whole_process_seconds(scene, integrator, spp, None)
+    return {"seconds": seconds, "samples_per_s": pixels * spp / seconds}
 
 
 def run_mitsuba(xml: Path, spp: int, variant: str, llvm: str | None) -> dict:
@@ -119,17 +129,32 @@ def main(argv: list[str] | None = None) -> int:
         variants = [v for v in variants if not v.startswith("llvm")]
     jobs = []
     for case in a.cases:
+        if not case_scene(case).exists():
+            print(f"{case}: scene {case_scene(case)} not found, skipped")
+            continue
         for integ in CASES[case][1]:
             if integ in a.integrators.split(","):
                 jobs.append((case, integ, *scene_paths(case, integ)))
-    runs: dict[tuple[str, str], dict[str, list[dict]]] = {(c, i): {"brdflab": []} | {v: [] for v in variants}
+    players = ["brdflab", "brdflab_whole"]
+    runs: dict[tuple[str, str], dict[str, list[dict]]] = {(c, i): {p: [] for p in players} | {v: [] for v in variants}
                                                           for c, i, _, _ in jobs}
+    pixels: dict[tuple[str, str], int] = {}
     for r in range(a.rounds):
         for case, integ, scene, xml in jobs:
-            order = ["brdflab", *variants] if r % 2 == 0 else [*variants, "brdflab"]
+            order = [*players, *variants] if r % 2 == 0 else [*variants, *players[::-1]]
             for who in order:
-                rec = (run_brdflab(scene, integ, a.spp, case) if who == "brdflab"
-                       else run_mitsuba(xml, a.spp, who, llvm))
+                if who == "brdflab":
+                    rec = run_brdflab(scene, integ, a.spp, case)
+                    pixels[(case, integ)] = rec["width"] * rec["height"]
+                elif who == "brdflab_whole":
+                    if (case, integ) not in pixels:
+                        from brdflab.scene.loader import load_scene
+
+                        cam = load_scene(scene).camera
+                        pixels[(case, integ)] = cam.width * cam.height
+                    rec = run_brdflab_whole(scene, integ, a.spp, pixels[(case, integ)])
+                else:
+                    rec = run_mitsuba(xml, a.spp, who, llvm)
                 runs[(case, integ)][who].append(rec)
                 print(f"round {r + 1}/{a.rounds}  {case:13s} {integ:12s} {who:12s} "
                       f"{rec['samples_per_s'] / 1e6:6.2f} M samples/s", flush=True)
@@ -139,16 +164,20 @@ def main(argv: list[str] | None = None) -> int:
         med = {w: statistics.median(x["samples_per_s"] for x in recs) for w, recs in by.items()}
         row["median_samples_per_s"] = med
         row["ratio"] = {v: med["brdflab"] / med[v] for v in variants}
+        row["whole_ratio"] = {v: med["brdflab_whole"] / med[v] for v in variants}
         row["brdflab_embree_share"] = statistics.median(x["embree_share"] for x in by["brdflab"])
         rows.append(row)
-    head = "| case | integrator | brdflab | " + " | ".join(f"Mitsuba {v}" for v in variants) + " | " + \
-        " | ".join(f"ratio vs {v}" for v in variants) + " |"
+    head = "| case | integrator | brdflab | brdflab whole process | " + \
+        " | ".join(f"Mitsuba {v}" for v in variants) + " | " + " | ".join(f"ratio vs {v}" for v in variants) + \
+        " | " + " | ".join(f"whole process vs {v}" for v in variants) + " |"
     print("\n" + head)
-    print("|" + "---|" * (2 + 2 * len(variants) + 1))
+    print("|" + "---|" * (4 + 3 * len(variants)))
     for row in rows:
         med = row["median_samples_per_s"]
-        cells = [f"{med['brdflab'] / 1e6:.2f} M"] + [f"{med[v] / 1e6:.2f} M" for v in variants]
+        cells = [f"{med['brdflab'] / 1e6:.2f} M", f"{med['brdflab_whole'] / 1e6:.2f} M"]
+        cells += [f"{med[v] / 1e6:.2f} M" for v in variants]
         cells += [f"**{row['ratio'][v]:.2f}×**" for v in variants]
+        cells += [f"**{row['whole_ratio'][v]:.2f}×**" for v in variants]
         print(f"| {row['case']} | {row['integrator']} | " + " | ".join(cells) + " |")
     print(f"\nsamples/s, median of {a.rounds} alternating rounds, {a.spp} spp, {os.cpu_count()} cores, "
           f"{time.strftime('%Y-%m-%d')}")

@@ -6,6 +6,12 @@ record per case with the median and spread over several runs, comparable across 
 
 The procedural scene ``mesh1m`` is a displaced, finely tessellated sphere of ≥ 1 million triangles,
 written as OBJ into a cache folder so that the OBJ parser and the BVH build are part of what is timed.
+The course scenes (:data:`COURSE_CASES`) are read from ``../shared/scenes`` beside the repository and
+skipped when it is absent (they are never copied into the repository).
+
+Besides the render-only figures, every case records its **fixed costs** (process start-up and imports,
+OBJ parse, BVH build, the whole load, EXR and PNG write) and the wall time of the **whole process** as
+users run it: ``brdflab render SCENE --spp N`` in a fresh process, start to exit, output included.
 """
 
 from __future__ import annotations
@@ -14,9 +20,11 @@ import json
 import os
 import platform
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -30,6 +38,17 @@ CASES: dict[str, tuple[str, tuple[str, ...]]] = {
     "envlit": ("scenes/envlit/envlit_mis.xml", ("direct_ems", "direct_mats", "direct_mis")),
     "mesh1m": ("<generated>", ("direct_ems",)),
 }
+#: Course scenes (read from ``../shared`` when present): name → (path relative to the repository, the
+#: scene's own integrator).
+COURSE_CASES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "table_ems": ("../shared/scenes/assignment-2/table/table_ems.xml", ("direct_ems",)),
+    "cbox_conductors_ems": ("../shared/scenes/assignment-3/cbox/cbox_conductors_ems.xml", ("direct_ems",)),
+    "cbox_substrate_ems": ("../shared/scenes/assignment-3/cbox/cbox_substrate_ems.xml", ("direct_ems",)),
+    "veach_ems": ("../shared/scenes/assignment-3/veach_mi/veach_ems.xml", ("direct_ems",)),
+    "veach_mats": ("../shared/scenes/assignment-3/veach_mi/veach_mats.xml", ("direct_mats",)),
+    "veach_mis": ("../shared/scenes/assignment-3/veach_mi/veach_mis.xml", ("direct_mis",)),
+}
+CASES.update(COURSE_CASES)
 
 
 @dataclass
@@ -49,6 +68,12 @@ class BenchResult:
     worker_peak_rss_bytes: int = 0
     """Peak resident memory of the largest forked worker (0 with one worker)."""
     bytes_per_triangle: float = 0.0
+    """Peak resident memory added by loading the scene (OBJ parse and BVH build), per triangle."""
+    fixed: dict = field(default_factory=dict)
+    """Fixed costs in seconds: ``startup`` (process start to the first brdflab import done), ``obj``,
+    ``bvh``, ``load`` (the whole scene load), ``write_exr`` and ``write_png`` (written in parallel)."""
+    whole_seconds: list[float] = field(default_factory=list)
+    """Wall time of whole ``brdflab render`` processes (filled by :func:`run_suite`)."""
 
     def median(self, key: str) -> float:
         """Median of ``key`` over the runs."""
@@ -91,9 +116,12 @@ def mesh_scene(cache: Path, n_theta: int, n_phi: int, name: str, obj_name: str |
 
 def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int | None, case: str) -> BenchResult:
     """Measure one case in this process (call it in a fresh process for meaningful peak memory)."""
+    from brdflab.imageio import write_images
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
+    from brdflab.timing import process_seconds
 
+    startup = process_seconds()
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     t0 = time.perf_counter()
     scene = load_scene(scene_path, integrator)
@@ -101,8 +129,9 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     tris = scene.geometry.triangle_count
     res = BenchResult(case, integrator, scene.camera.width, scene.camera.height, spp, tris, load_s)
+    image = None
     for k in range(runs):
-        _, st = render(scene, spp=spp, seed=k, workers=workers)
+        image, st = render(scene, spp=spp, seed=k, workers=workers)
         res.runs.append({"seconds": st.seconds, "samples_per_s": st.samples_per_second,
                          "rays_per_s": st.rays_per_second, "embree_share": st.embree_share,
                          "ray_seconds": st.ray_seconds, "workers": st.workers})
@@ -111,7 +140,44 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
     res.peak_rss_bytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     res.worker_peak_rss_bytes = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
     res.bytes_per_triangle = (rss_loaded - rss0) / tris if tris else 0.0
+    write = (0.0, 0.0)
+    if image is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            write = write_images(Path(tmp) / "bench.exr", Path(tmp) / "bench.png", image)
+    t = scene.timings
+    res.fixed = {"startup": startup, "obj": t.get("obj", 0.0), "bvh": t.get("bvh", 0.0), "load": load_s,
+                 "write_exr": write[0], "write_png": write[1]}
     return res
+
+
+def brdflab_command() -> list[str]:
+    """The ``brdflab`` console script of this environment (as users run it)."""
+    exe = Path(sys.executable).parent / "brdflab"
+    found = str(exe) if exe.exists() else shutil.which("brdflab")
+    if found is None:
+        raise FileNotFoundError("the brdflab command is not installed (pip install -e .)")
+    return [found]
+
+
+def whole_process_seconds(scene_path: Path, integrator: str, spp: int, workers: int | None, seed: int = 0) -> float:
+    """Wall time of one ``brdflab render`` process (start-up, load, render, EXR + PNG write, exit)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [*brdflab_command(), "render", str(scene_path), "--spp", str(spp), "--seed", str(seed),
+               "--integrator", integrator, "-o", str(Path(tmp) / "whole.exr"), "--quiet"]
+        if workers:
+            cmd += ["--workers", str(workers)]
+        t0 = time.perf_counter()
+        out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        seconds = time.perf_counter() - t0
+    if out.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{out.stderr[-2000:]}")
+    return seconds
+
+
+def case_scene(case: str) -> Path:
+    """The scene file of a bench case (generating ``mesh1m`` if needed)."""
+    rel = CASES[case][0]
+    return mesh1m_scene(ROOT / ".bench-cache") if rel == "<generated>" else (ROOT / rel).resolve()
 
 
 def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: Path | None,
@@ -119,8 +185,8 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
     """Run the named cases (each in a subprocess) and return (and optionally write) the JSON records."""
     records = []
     for case in cases:
-        rel, integrators = CASES[case]
-        scene = mesh1m_scene(ROOT / ".bench-cache") if rel == "<generated>" else ROOT / rel
+        integrators = CASES[case][1]
+        scene = case_scene(case)
         if not scene.exists():
             say(f"{case}: scene {scene} not found, skipped")
             continue
@@ -132,15 +198,21 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
                 say(f"{case}/{integ}: failed\n{out_p.stderr[-2000:]}")
                 continue
             rec = json.loads(out_p.stdout.strip().splitlines()[-1])
+            rec["whole_seconds"] = [whole_process_seconds(scene, integ, spp, workers, seed=k) for k in range(runs)]
             r = BenchResult(**{k: v for k, v in rec.items() if k in BenchResult.__dataclass_fields__})
             rec["median"] = {k: r.median(k) for k in ("samples_per_s", "rays_per_s", "embree_share", "seconds")}
+            rec["median"]["whole_seconds"] = statistics.median(r.whole_seconds)
             rec["spread"] = {k: r.spread(k) for k in ("samples_per_s",)}
             records.append(rec)
-            med, spread = rec["median"], rec["spread"]
-            say(f"{case:14s} {integ:12s} {r.width}×{r.height} {spp:4d} spp  "
+            med, spread, fx = rec["median"], rec["spread"], r.fixed
+            say(f"{case:19s} {integ:12s} {r.width}×{r.height} {spp:4d} spp  "
                 f"{med['samples_per_s'] / 1e6:6.2f} M samples/s (±{100 * spread['samples_per_s']:.0f}%)  "
                 f"{med['rays_per_s'] / 1e6:6.2f} M rays/s  Embree {100 * med['embree_share']:4.0f}%  "
-                f"load {r.load_seconds:5.2f} s  {r.triangles:,} tris  peak {r.peak_rss_bytes / 2**20:6.0f} MiB")
+                f"{r.triangles:,} tris  peak {r.peak_rss_bytes / 2**20:6.0f} MiB "
+                f"({r.bytes_per_triangle:.0f} B/triangle)\n{'':19s} render {med['seconds']:6.2f} s, whole process "
+                f"{med['whole_seconds']:6.2f} s; fixed: start-up {fx['startup']:.2f} s, load {fx['load']:.2f} s "
+                f"(OBJ {fx['obj']:.2f}, BVH {fx['bvh']:.2f}), write EXR {fx['write_exr']:.2f} ∥ PNG "
+                f"{fx['write_png']:.2f} s")
     if out is not None:
         doc = {"date": time.strftime("%Y-%m-%d %H:%M"), "machine": {"cpus": os.cpu_count(),
                "platform": platform.platform(), "python": platform.python_version()},

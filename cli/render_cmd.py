@@ -81,9 +81,12 @@ def output_paths(scene_path: Path, output: Path | None, figures: Path | None, sp
 
 def run(args: argparse.Namespace) -> int:
     """Load, render and write the images."""
-    from brdflab.imageio import write_exr, write_png
+    from brdflab.imageio import write_images
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
+    from brdflab.timing import fixed_costs_line, process_seconds
+
+    startup_s = process_seconds()
 
     if args.spp is not None and args.spp < 1:
         raise BrdflabError(f"--spp must be at least 1, got {args.spp}")
@@ -129,10 +132,11 @@ def run(args: argparse.Namespace) -> int:
     if interrupted and args.figures is None:
         exr = exr.with_name(f"{exr.stem}_partial_{stats.spp}spp.exr")
         png = exr.with_suffix(".png")
-    write_exr(exr, image, extra={"brdflab_spp": str(stats.spp), "brdflab_integrator": scene.integrator_type,
-                                 "brdflab_seconds": f"{stats.seconds:.3f}"})
-    write_png(png, image)
+    write_s = write_images(exr, png, image, extra={"brdflab_spp": str(stats.spp),
+                                                   "brdflab_integrator": scene.integrator_type,
+                                                   "brdflab_seconds": f"{stats.seconds:.3f}"})
     if not args.quiet:
         print(stats.summary(), file=sys.stderr)
+        print("  " + fixed_costs_line(startup_s, scene.timings, write_s, process_seconds()), file=sys.stderr)
         print(f"wrote {exr} and {png}", file=sys.stderr)
     return 130 if interrupted else 0

@@ -10,6 +10,7 @@ the working directory, then as given.
 from __future__ import annotations
 
 import importlib
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,6 +99,9 @@ class Scene:
     mesh_emitter: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     emitter_pmf: np.ndarray = field(default_factory=lambda: np.zeros(0))
     emitter_cdf: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    timings: dict[str, float] = field(default_factory=dict)
+    """Seconds spent loading: ``"obj"`` (parsing the meshes), ``"geometry"`` (triangle tables and BVH),
+    ``"bvh"`` (the Embree build alone) and ``"total"`` (the whole :func:`load_scene`)."""
 
     def set_emitter_selection(self, mode: str = "uniform") -> None:
         """Choose emitters uniformly (Nori's rule, default) or proportionally to their power."""
@@ -159,6 +163,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
     BrdflabError
         For every invalid or missing input, with file and line.
     """
+    t_start = time.perf_counter()
     path = Path(path)
     root = parse_scene_file(path)
     root.props.check_known({})
@@ -249,6 +254,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
     bsdfs: list[BSDF] = []
     meshes: list[MeshInstance] = []
     area_emitters: list[tuple[int, Emitter, ObjectSpec]] = []
+    obj_seconds = 0.0
     for spec in mesh_specs:
         if spec.type != "obj":
             raise spec.error(f'unknown mesh type "{spec.type}"; valid types: obj')
@@ -259,7 +265,9 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
             raise spec.props.error("filename", f"mesh file '{fname}' not found (looked in {scene_dir} and "
                                    "the working directory)")
         to_world = spec.props.get_transform("toWorld", Transform())
+        t0 = time.perf_counter()
         mesh = load_obj(fpath, to_world)
+        obj_seconds += time.perf_counter() - t0
         bsdf_spec = em_spec = None
         for c in spec.children:
             if c.tag == "bsdf":
@@ -286,7 +294,9 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
             _attach_textures(em, em_spec)
             area_emitters.append((len(meshes) - 1, em, em_spec))
 
+    t0 = time.perf_counter()
     geometry = Geometry([m.mesh for m in meshes])
+    geometry_seconds = time.perf_counter() - t0
     for mesh_index, em, spec in area_emitters:
         em.attach(geometry, mesh_index)
         if not em.area > 0:
@@ -301,4 +311,6 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
     scene.set_emitter_selection("uniform")
     if not emitters and getattr(integrator, "needs_emitters", False):
         warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
+    scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
+                     "total": time.perf_counter() - t_start}
     return scene

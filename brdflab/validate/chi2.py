@@ -23,7 +23,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 SIGNIFICANCE = 0.01
 
@@ -172,6 +171,8 @@ def pearson(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, flo
         terms = np.where(e > 0, (o - e) ** 2 / e, np.where(o > 0, np.inf, 0.0))
     stat = float(terms.sum())
     dof = max(len(o) - 1, 1)
+    from scipy import stats  # here, not at the top: scipy.stats costs ~1 s of start-up for every command
+
     return stat, dof, (float(stats.chi2.sf(stat, dof)) if np.isfinite(stat) else 0.0)
 
 

@@ -1,0 +1,58 @@
+"""Fixed costs of a run: ``brdflab render`` imports no plotting or statistics library, prints its fixed
+costs, and writes the EXR and the PNG together (same pixels as writing them one after the other)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from brdflab.errors import ImageError
+from brdflab.imageio import read_exr, read_png, srgb_bytes, write_images
+from tests.conftest import ROOT
+
+#: Libraries the render command must not import (each costs 0.3–1 s of start-up).
+HEAVY = ("scipy", "matplotlib", "colour")
+
+_PROBE = """
+import json, sys
+from importlib.metadata import entry_points
+main = next(e for e in entry_points(group="console_scripts") if e.name == "brdflab").load()
+status = main(sys.argv[1:])
+print(json.dumps({"status": status, "modules": sorted({m.split(".")[0] for m in sys.modules})}))
+"""
+
+
+def test_render_command_imports_no_heavy_library_and_reports_fixed_costs(tmp_path):
+    scene = ROOT / "scenes" / "envlit" / "envlit_ems.xml"
+    out = subprocess.run([sys.executable, "-c", _PROBE, "render", str(scene), "--spp", "1", "--workers", "1",
+                          "-o", str(tmp_path / "e.exr")], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rec = json.loads(out.stdout.strip().splitlines()[-1])
+    assert rec["status"] == 0
+    assert not set(HEAVY) & set(rec["modules"]), set(HEAVY) & set(rec["modules"])
+    line = next(ln for ln in out.stderr.splitlines() if "fixed costs" in ln)
+    for part in ("start-up", "load", "OBJ", "BVH", "EXR", "PNG", "whole run"):
+        assert part in line, line
+    assert (tmp_path / "e.exr").is_file() and (tmp_path / "e.png").is_file()
+
+
+def test_write_images_matches_separate_writes(tmp_path):
+    rng = np.random.default_rng(1701)
+    img = (rng.random((37, 53, 3)) * 1.3).astype(np.float32)
+    exr_s, png_s = write_images(tmp_path / "a.exr", tmp_path / "a.png", img, extra={"k": "v"})
+    assert exr_s >= 0 and png_s >= 0
+    np.testing.assert_array_equal(read_exr(tmp_path / "a.exr"), img)
+    np.testing.assert_array_equal(read_png(tmp_path / "a.png"), srgb_bytes(img))
+
+
+def test_write_images_raises_when_the_png_cannot_be_written(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    img = np.zeros((4, 4, 3), np.float32)
+    with pytest.raises(ImageError):
+        write_images(tmp_path / "a.exr", blocker / "a.png", img)
+    assert (tmp_path / "a.exr").is_file()  # the other image is complete, not half-written
