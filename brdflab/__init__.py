@@ -3,6 +3,71 @@
 Renders Nori scene files under direct illumination with microfacet materials (NumPy-vectorised over
 embreex ray queries), validates every material and sampling routine statistically, and compares Monte
 Carlo estimators as error against run time.
+
+The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
+
+=========================================  =====================================================================
+``bl.load_scene(path, **overrides)``       a Nori scene (``integrator``, ``spp``, ``seed``, ``width``, ``height``)
+``bl.render(scene, spp, seed, workers)``   the (H, W, 3) float32 image (``return_stats=True``: also the stats)
+``bl.read_exr``, ``bl.write_exr``          linear RGB OpenEXR files
+``bl.Diffuse``, ``bl.RoughConductor``,     the materials, with keyword parameters named as in scene files
+``bl.RoughSubstrate``
+``bl.BSDF``, ``bl.BSDFSample``             the contract a user's material implements (:mod:`brdflab.bsdf.base`)
+``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
+``bl.plugins``                             the registry (:mod:`brdflab.plugins`)
+``bl.warps``                               square-to-sphere/disk/triangle warps and their pdfs
+``bl.chi2_test`` …                         the statistical checks, returning result objects
+=========================================  =====================================================================
+
+Names are imported on first use, so ``import brdflab`` stays fast.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
 __version__ = "0.1.0"
+
+#: Public name → "module:attribute" (imported lazily, PEP 562).
+_EXPORTS = {
+    "load_scene": "brdflab.api:load_scene",
+    "render": "brdflab.api:render",
+    "read_exr": "brdflab.imageio:read_exr",
+    "write_exr": "brdflab.imageio:write_exr",
+    "BSDF": "brdflab.bsdf.base:BSDF",
+    "BSDFSample": "brdflab.bsdf.base:BSDFSample",
+    "Diffuse": "brdflab.bsdf.diffuse:Diffuse",
+    "RoughConductor": "brdflab.bsdf.roughconductor:RoughConductor",
+    "RoughSubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
+    "register_bsdf": "brdflab.plugins:register_bsdf",
+    "load_plugin": "brdflab.plugins:load_plugin",
+    "make_bsdf": "brdflab.plugins:make_bsdf",
+    "BrdflabError": "brdflab.errors:BrdflabError",
+    "plugins": "brdflab.plugins",
+    "warps": "brdflab.math.warps",
+    "chi2_test": "brdflab.validate:chi2_test",
+    "warp_chi2_test": "brdflab.validate:warp_chi2_test",
+    "consistency_test": "brdflab.validate:consistency_test",
+    "furnace_test": "brdflab.validate:furnace_test",
+    "stability_test": "brdflab.validate:stability_test",
+    "run_battery": "brdflab.validate:run_battery",
+}
+
+__all__ = ["__version__", *_EXPORTS]
+
+
+def __getattr__(name: str) -> Any:
+    target = _EXPORTS.get(name)
+    if target is None:
+        raise AttributeError(f"module 'brdflab' has no attribute '{name}'")
+    module, _, attr = target.partition(":")
+    value = importlib.import_module(module)
+    if attr:
+        value = getattr(value, attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -40,6 +40,7 @@ import signal
 import sys
 import threading
 import time
+import types
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
@@ -384,3 +385,16 @@ def render(
     stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
     stats.samples = done_spp * cam.width * cam.height
     return film.image(), stats
+
+
+class _CallableModule(types.ModuleType):
+    """``brdflab.render`` is both this module and the public function :func:`brdflab.api.render`: importing a
+    submodule binds its name in the package, so the module itself forwards calls to the API function."""
+
+    def __call__(self, *args, **kwargs):
+        from brdflab.api import render as api_render
+
+        return api_render(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

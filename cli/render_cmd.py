@@ -12,6 +12,8 @@ from pathlib import Path
 
 from brdflab.errors import BrdflabError
 
+from .options import add_plugin_option, load_plugins
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` sub-command."""
@@ -32,6 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=float, metavar="SECONDS",
                    help="render as many full passes as fit in this time")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    add_plugin_option(p)
     p.set_defaults(func=run)
 
 
@@ -92,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         raise BrdflabError(f"--spp must be at least 1, got {args.spp}")
     if args.workers is not None and args.workers < 1:
         raise BrdflabError(f"--workers must be at least 1, got {args.workers}")
+    load_plugins(args)
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from brdflab.errors import BrdflabError
 
+from .options import add_plugin_option, load_plugins
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` sub-command."""
@@ -24,6 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
+    add_plugin_option(p)
     p.set_defaults(func=run)
 
 
@@ -43,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.report.variance import run_study, summary, write_report
     from brdflab.scene.loader import PLUGINS
 
+    load_plugins(args)
     integrators = [t.strip() for t in args.integrators.split(",") if t.strip()]
     for name in integrators:
         if name not in PLUGINS["integrator"]:

@@ -6,12 +6,15 @@ import argparse
 import sys
 from pathlib import Path
 
+from .options import add_bsdf_options, bsdf_spec_from_args, load_plugins
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``validate`` sub-command."""
     p = sub.add_parser("validate", help="run every chi-square, consistency, furnace and stability check",
                        description="All warps and BSDFs over α ∈ {1e-3 … 1} and θ_i ∈ {0 … 89°}; console verdicts "
                        "and an HTML report. Exit status 1 if anything fails.")
+    add_bsdf_options(p, repeat=True)
     p.add_argument("--samples", type=int, default=200_000, help="samples per chi-square test (default 200000)")
     p.add_argument("-o", "--output", type=Path, default=Path("reports/validation"))
     p.set_defaults(func=run)
@@ -19,11 +22,23 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the battery and write the report."""
+    from brdflab.errors import BrdflabError
     from brdflab.report.index import write_index
     from brdflab.report.validation import write_validation_report
-    from brdflab.validate.battery import run_battery
+    from brdflab.validate.battery import ALPHAS, THETAS, run_battery
 
-    bat = run_battery(n=args.samples, progress=print)
+    load_plugins(args)
+    if args.bsdf:  # the whole battery on these BSDFs only (no warps)
+        specs = [bsdf_spec_from_args(args, name) for name in args.bsdf]
+        if len(specs) > 1 and args.param:
+            raise BrdflabError("--param applies to a single --bsdf")
+        bat = run_battery(n=args.samples, bsdfs=[s[0] for s in specs], warp_names=[],
+                          alphas=tuple(args.alpha or ALPHAS), thetas=tuple(args.theta or THETAS),
+                          params=specs[0][1], progress=print)
+    else:
+        if args.param or args.alpha or args.theta:
+            raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
+        bat = run_battery(n=args.samples, progress=print)
     path = write_validation_report(bat, args.output)
     write_index(args.output.parent)
     print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES") + f"; report: {path}")

@@ -65,7 +65,7 @@ def test_discrete_chooser_small_and_large_agree_in_distribution():
 
 def test_families_group_materials_that_differ_in_constants_only():
     bsdfs = [Diffuse([0.7, 0.1, 0.1]), RoughSubstrate(0.2, 0.3), Diffuse(0.5), RoughSubstrate([0.1, 0.2, 0.3], 0.01),
-             RoughSubstrate(0.2, 0.3, int_ior=1.33), Diffuse(CheckerTexture()), RoughConductor(0.9, 0.1)]
+             RoughSubstrate(0.2, 0.3, intIOR=1.33), Diffuse(CheckerTexture()), RoughConductor(0.9, 0.1)]
     fams = BSDFFamilies.build(bsdfs, np.arange(len(bsdfs)))
     f = fams.mesh_family
     assert f[0] == f[2] and f[1] == f[3]  # same class, same IORs

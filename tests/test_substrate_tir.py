@@ -13,7 +13,7 @@ from brdflab.math import warps
 
 @pytest.mark.parametrize("theta_deg", [60.0, 80.0])
 def test_bsdf_sampling_reaches_the_diffuse_lobe_under_total_internal_reflection(theta_deg):
-    bsdf = RoughSubstrate(kd=np.array([0.8, 0.8, 0.8]), alpha=0.2, int_ior=1.0, ext_ior=1.5)
+    bsdf = RoughSubstrate(kd=np.array([0.8, 0.8, 0.8]), alpha=0.2, intIOR=1.0, extIOR=1.5)
     t = np.radians(theta_deg)  # critical angle asin(1/1.5) = 41.8°: both angles are beyond it
     n = 400_000
     rng = np.random.default_rng(7)

@@ -41,6 +41,9 @@ class BSDF:
     type_name: str = ""
     #: Texture slots accepted as ``<texture name="...">`` children.
     texture_slots: tuple[str, ...] = ()
+    #: True when f(ω_i, ω_o) = f(ω_o, ω_i) (checked by ``brdflab validate``); a class that is not
+    #: reciprocal by design says so here and the check only reports the asymmetry.
+    reciprocal: bool = True
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """Return f(wi, wo), shape (N, 3), without the cosine."""
@@ -72,8 +75,13 @@ class BSDF:
         Two instances of one class whose texture slots are all constant and whose
         :meth:`scalar_parameters` agree differ only in their constants: a batch of shading points on
         either is evaluated by one :meth:`with_point_values` copy instead of one call per material.
-        Returns None when the material must be evaluated on its own (a texture that varies with uv).
+        Returns None when the material must be evaluated on its own (a texture that varies with uv), and
+        for every class that does not declare ``batchable = True`` in its own body: a user's BSDF (or a
+        subclass of a built-in) keeps its parameters in attributes the family tables know nothing of, so
+        it always takes the plain per-material path.
         """
+        if not type(self).__dict__.get("batchable", False):
+            return None
         if not all(getattr(self, slot).constant for slot in self.texture_slots):
             return None
         return (type(self), *self.scalar_parameters())

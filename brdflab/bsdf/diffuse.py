@@ -23,6 +23,8 @@ from brdflab.texture import Texture, as_texture
 class Diffuse(BSDF):
     """Lambertian reflector with a constant or textured albedo."""
 
+    #: Instances differing only in constants are evaluated as one batch (:mod:`brdflab.bsdf.family`).
+    batchable = True
     type_name = "diffuse"
     texture_slots = ("albedo",)
     KNOWN = {"albedo": "color"}

@@ -45,14 +45,34 @@ def check_alpha(props: PropertyList) -> float:
 
 
 class RoughConductor(BSDF):
-    """Beckmann rough conductor with a Schlick Fresnel term (see module docstring)."""
+    """Beckmann rough conductor with a Schlick Fresnel term (see module docstring).
 
+    Parameters
+    ----------
+    R0
+        Reflectance at normal incidence: a number, an RGB triple or a texture.
+    alpha
+        Beckmann roughness (> 0): a number or a texture (its luminance is used).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdflab import RoughConductor
+    >>> m = RoughConductor(R0=0.9, alpha=0.1)
+    >>> wi = np.array([[0.0, 0.0, 1.0]])
+    >>> s = m.sample(wi, np.full((1, 3), 0.5))
+    >>> bool(np.allclose(s.weight, m.eval(wi, s.wo) * s.wo[:, 2:] / s.pdf[:, None]))
+    True
+    """
+
+    #: Instances differing only in constants are evaluated as one batch (:mod:`brdflab.bsdf.family`).
+    batchable = True
     type_name = "roughconductor"
     texture_slots = ("R0", "alpha")
     KNOWN = {"R0": "color", "alpha": "float"}
 
-    def __init__(self, r0: Texture | np.ndarray | float = 0.5, alpha: Texture | float = 0.1) -> None:
-        self.R0 = as_texture(r0)
+    def __init__(self, R0: Texture | np.ndarray | float = 0.5, alpha: Texture | float = 0.1) -> None:  # noqa: N803
+        self.R0 = as_texture(R0)
         self.alpha = as_texture(alpha)
 
     @classmethod

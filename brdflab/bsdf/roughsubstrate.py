@@ -45,22 +45,24 @@ class RoughSubstrate(BSDF):
 
     Parameters
     ----------
-    kd, alpha, int_ior, ext_ior
-        As in the table of the module docstring.
+    kd, alpha, intIOR, extIOR
+        As in the table of the module docstring (``RoughSubstrate(kd=0.3, alpha=0.1, intIOR=1.5)``).
     lobe
         ``"both"`` (default), or ``"specular"``/``"diffuse"`` to evaluate, sample and integrate a single
         lobe (used by the validation harness).
     """
 
+    #: Instances differing only in constants are evaluated as one batch (:mod:`brdflab.bsdf.family`).
+    batchable = True
     type_name = "roughsubstrate"
     texture_slots = ("kd", "alpha")
     KNOWN = {"kd": "color", "alpha": "float", "intIOR": "float", "extIOR": "float"}
 
     def __init__(self, kd: Texture | np.ndarray | float = 0.5, alpha: Texture | float = 0.1,
-                 int_ior: float = 1.5046, ext_ior: float = 1.000277, lobe: str = "both") -> None:
+                 intIOR: float = 1.5046, extIOR: float = 1.000277, lobe: str = "both") -> None:  # noqa: N803
         self.kd = as_texture(kd)
         self.alpha = as_texture(alpha)
-        self.int_ior, self.ext_ior = float(int_ior), float(ext_ior)
+        self.int_ior, self.ext_ior = float(intIOR), float(extIOR)
         self.lobe = lobe
         rn = ((self.ext_ior - self.int_ior) / (self.ext_ior + self.int_ior)) ** 2
         self.diffuse_scale = 28.0 / (23.0 * np.pi) * (1.0 - rn)

@@ -9,7 +9,6 @@ the working directory, then as given.
 
 from __future__ import annotations
 
-import importlib
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -22,52 +21,14 @@ from brdflab.emitter.base import Emitter
 from brdflab.errors import BrdflabError, SceneError
 from brdflab.film import Camera, Filter
 from brdflab.math.transform import Transform
+from brdflab.plugins import BUILTIN, UNSUPPORTED, build_bsdf, plugin_class  # noqa: F401 (re-exported)
 from brdflab.scene.geometry import Geometry
 from brdflab.scene.obj import Mesh, load_obj
 from brdflab.scene.xmlparser import ObjectSpec, parse_scene_file
 from brdflab.texture import CheckerTexture
 
-#: Registered plugins: tag → type → "module:Class".
-PLUGINS: dict[str, dict[str, str]] = {
-    "bsdf": {
-        "diffuse": "brdflab.bsdf.diffuse:Diffuse",
-        "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
-        "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
-    },
-    "emitter": {
-        "area": "brdflab.emitter.area:AreaEmitter",
-        "pointlight": "brdflab.emitter.point:PointLight",
-        "environment": "brdflab.emitter.environment:EnvironmentEmitter",
-    },
-    "integrator": {
-        "normals": "brdflab.integrator.normals:NormalsIntegrator",
-        "direct_ems": "brdflab.integrator.direct_ems:DirectEMS",
-        "direct_mats": "brdflab.integrator.direct_mats:DirectMATS",
-        "direct_mis": "brdflab.integrator.direct_mis:DirectMIS",
-        "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
-    },
-}
-#: Nori plugins brdflab deliberately leaves out (no path tracing, no delta BSDFs).
-UNSUPPORTED = {
-    "bsdf": ("mirror", "dielectric", "roughdielectric"),
-    "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
-}
-
-
-def plugin_class(tag: str, type_name: str, spec: ObjectSpec | None = None) -> type:
-    """Return the class registered for ``<tag type="type_name">`` or raise a SceneError listing valid types."""
-    table = PLUGINS.get(tag, {})
-    target = table.get(type_name)
-    if target is None:
-        valid = ", ".join(sorted(table)) or "none"
-        if type_name in UNSUPPORTED.get(tag, ()):
-            msg = f'<{tag} type="{type_name}"> is a Nori plugin that brdflab does not support ' \
-                  f"(direct illumination only); supported types: {valid}"
-        else:
-            msg = f'unknown {tag} type "{type_name}"; valid types: {valid}'
-        raise SceneError(msg, spec.file if spec else None, spec.line if spec else None)
-    module, cls = target.split(":")
-    return getattr(importlib.import_module(module), cls)
+#: The registry's tables (kept here for callers of the loader; :mod:`brdflab.plugins` owns them).
+PLUGINS = BUILTIN
 
 
 @dataclass
@@ -148,15 +109,30 @@ def _no_children(spec: ObjectSpec) -> None:
         raise c.error(f"{spec.label} cannot contain <{c.tag}>")
 
 
-def load_scene(path: str | Path, integrator_override: str | None = None) -> Scene:
+def _positive_int(name: str, value: object, minimum: int = 1) -> int:
+    """An override given in Python: an integer ≥ ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise BrdflabError(f"{name} must be an integer ≥ {minimum}, got {value!r:.60}")
+    return int(value)
+
+
+def load_scene(path: str | Path, integrator_override: str | None = None, *, integrator: str | None = None,
+               spp: int | None = None, seed: int | None = None, width: int | None = None,
+               height: int | None = None, emitter_selection: str | None = None) -> Scene:
     """Parse and assemble a Nori scene file.
 
     Parameters
     ----------
     path
         The scene XML file.
-    integrator_override
-        Replace the scene's integrator type (e.g. ``"direct_mis"``).
+    integrator_override, integrator
+        Replace the scene's integrator type (e.g. ``"direct_mis"``); the two names are synonyms.
+    spp, seed
+        Replace the sampler's ``sampleCount`` and ``seed``.
+    width, height
+        Replace the camera's image size (the horizontal field of view is kept, as when editing the file).
+    emitter_selection
+        ``"uniform"`` (Nori's rule, default) or ``"power"``.
 
     Raises
     ------
@@ -164,6 +140,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
         For every invalid or missing input, with file and line.
     """
     t_start = time.perf_counter()
+    integrator_override = integrator or integrator_override
     path = Path(path)
     root = parse_scene_file(path)
     root.props.check_known({})
@@ -213,6 +190,9 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
     # Camera and filter.
     if camera_spec.type != "perspective":
         raise camera_spec.error(f'unknown camera type "{camera_spec.type}"; valid types: perspective')
+    for key, value in (("width", width), ("height", height)):
+        if value is not None:
+            camera_spec.props.set(key, "integer", _positive_int(key, value))
     camera = Camera.from_properties(camera_spec.props)
     filt = Filter()
     for c in camera_spec.children:
@@ -226,6 +206,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
         filt = Filter.from_properties(c.type, c.props)
 
     # Sampler.
+    spp_override, seed_override = spp, seed
     spp, seed = 1, 0
     if sampler_spec is not None:
         if sampler_spec.type != "independent":
@@ -236,6 +217,11 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
         seed = sampler_spec.props.get_int("seed", 0)
         if spp < 1:
             raise sampler_spec.props.error("sampleCount", f"'sampleCount' must be at least 1, got {spp}")
+
+    if spp_override is not None:
+        spp = _positive_int("spp", spp_override)
+    if seed_override is not None:
+        seed = _positive_int("seed", seed_override, minimum=0)
 
     # Scene-level emitters (XML order).
     emitters: list[Emitter] = []
@@ -285,7 +271,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
         if bsdf_spec is None:
             bsdf = plugin_class("bsdf", "diffuse")(np.full(3, 0.5))
         else:
-            bsdf = plugin_class("bsdf", bsdf_spec.type, bsdf_spec).from_properties(bsdf_spec.props)
+            bsdf = build_bsdf(plugin_class("bsdf", bsdf_spec.type, bsdf_spec), bsdf_spec.props)
             _attach_textures(bsdf, bsdf_spec)
         bsdfs.append(bsdf)
         meshes.append(MeshInstance(mesh, len(bsdfs) - 1))
@@ -308,7 +294,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None) -> Scen
                   environment)
     scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
     scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
-    scene.set_emitter_selection("uniform")
+    scene.set_emitter_selection(emitter_selection or "uniform")
     if not emitters and getattr(integrator, "needs_emitters", False):
         warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
     scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
