@@ -86,7 +86,7 @@ def bsdf_spec_from_args(args: argparse.Namespace,
                                f"{', '.join(parameter_kinds(bsdf_class(base))) or 'none'}")
         for a in alphas:
             if not (math.isfinite(a) and a > 0):
-                raise BrdflabError(f"--alpha must be a finite number > 0, got {a}")
+                raise BrdflabError(f"--alpha must be > 0 (and finite), got {a}")
     for t in args.theta or []:
         if not (math.isfinite(t) and 0 <= t < 90):
             raise BrdflabError(f"--theta must be in [0, 90) degrees, got {t}")

@@ -260,6 +260,16 @@ def accumulate(L: np.ndarray, idx: np.ndarray, a: np.ndarray, b: np.ndarray, sca
         col[idx] = np.take(col, idx) + c
 
 
+def point_uniforms(rng: np.random.Generator, n_rays: int, sp: ShadingPoints, dims: int) -> np.ndarray:
+    """(M, dims) uniforms for the shading points ``sp``, drawn per camera ray and gathered by ray index.
+
+    Tying the numbers to the camera sample rather than to the points' (material-family, flat/smooth)
+    sorted order makes an image independent of how the points were grouped: the fast paths for built-in
+    materials and the plain per-material path give the same image to the bit.
+    """
+    return np.take(rng.random((n_rays, dims)), sp.index, axis=0)
+
+
 def any_positive(rgb: np.ndarray) -> np.ndarray:
     """True where any of the three channels is > 0 (column-wise: faster than a reduction over axis 1)."""
     return (rgb[:, 0] > 0) | (rgb[:, 1] > 0) | (rgb[:, 2] > 0)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.integrator.common import Integrator, light_dims, light_term, set_rows, trace_camera
+from brdflab.integrator.common import Integrator, light_dims, light_term, point_uniforms, set_rows, trace_camera
 
 
 class DirectEMS(Integrator):
@@ -27,5 +27,5 @@ class DirectEMS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0 or not scene.emitters:
             return L
-        set_rows(L, sp.index, light_term(scene, sp, rng.random((len(sp.index), light_dims(scene)))))
+        set_rows(L, sp.index, light_term(scene, sp, point_uniforms(rng, len(o), sp, light_dims(scene))))
         return L

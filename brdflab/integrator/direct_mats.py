@@ -20,6 +20,7 @@ from brdflab.integrator.common import (
     accumulate,
     any_positive,
     emission_along,
+    point_uniforms,
     sample_bsdfs,
     trace_camera,
 )
@@ -55,6 +56,6 @@ class DirectMATS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0:
             return L
-        live, weight, _, Le, _ = bsdf_rays(scene, sp, rng.random((len(sp.index), 3)))
+        live, weight, _, Le, _ = bsdf_rays(scene, sp, point_uniforms(rng, len(o), sp, 3))
         accumulate(L, sp.index[live], weight, Le)
         return L

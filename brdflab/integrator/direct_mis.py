@@ -26,6 +26,7 @@ from brdflab.integrator.common import (
     accumulate,
     light_dims,
     light_term,
+    point_uniforms,
     set_rows,
     trace_camera,
 )
@@ -68,7 +69,7 @@ class DirectMIS(Integrator):
         if m == 0:
             return L
         k = light_dims(scene)
-        u = rng.random((m, k + 3))
+        u = point_uniforms(rng, len(o), sp, k + 3)
         if scene.emitters:
             Lsp = light_term(scene, sp, u[:, :k],
                              lambda ls, p_bsdf: np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta)))
