@@ -307,7 +307,7 @@ def test_roughconductor_f_and_pdf(alpha):
 @pytest.mark.parametrize("ext, int_", [(ETA_EXT, ETA_INT), (1.5, 1.0)])
 def test_roughsubstrate_f_and_pdf(alpha, ext, int_):
     wi, wo = direction_grid(alpha)
-    bsdf = RoughSubstrate(np.array(KD), alpha, int_ior=int_, ext_ior=ext)
+    bsdf = RoughSubstrate(np.array(KD), alpha, intIOR=int_, extIOR=ext)
     ref_f = [ref_substrate(vec(a), vec(b), M(alpha), KD, ext, int_) for a, b in zip(wi, wo, strict=True)]
     f, p = bsdf.eval_pdf(wi, wo)
     assert_close(f, ref_f, _tol(alpha, wi, wo), f"roughsubstrate f α={alpha} η={ext}/{int_}")
@@ -324,14 +324,14 @@ def test_substrate_diffuse_lobe(ext, int_):
     ti, to = np.meshgrid(th, th)
     wi = np.array([direction(t) for t in ti.ravel()])
     wo = np.array([direction(t, 77.0) for t in to.ravel()])
-    bsdf = RoughSubstrate(np.array(KD), 0.3, int_ior=int_, ext_ior=ext, lobe="diffuse")
+    bsdf = RoughSubstrate(np.array(KD), 0.3, intIOR=int_, extIOR=ext, lobe="diffuse")
     ref = [ref_fdiff(M(a[2]), M(b[2]), KD, ext, int_) for a, b in zip(wi, wo, strict=True)]
     # 1 − (1 − cos/2)⁵ loses digits for cos → 0 (≈ 1e-16/cos relative); cos 90° = 6e-17 gives 0 vs 1e-17.
     tol = 1e-12 + 1e-15 / np.maximum(np.minimum(np.abs(wi[:, 2]), np.abs(wo[:, 2])), 1e-6)
     assert_close(bsdf.eval(wi, wo), ref, tol, f"f_diff {ext}/{int_}", floor=1e-15)
     # The specular lobe alone is the total minus f_diff.
-    spec = RoughSubstrate(np.array(KD), 0.3, int_ior=int_, ext_ior=ext, lobe="specular")
-    full = RoughSubstrate(np.array(KD), 0.3, int_ior=int_, ext_ior=ext)
+    spec = RoughSubstrate(np.array(KD), 0.3, intIOR=int_, extIOR=ext, lobe="specular")
+    full = RoughSubstrate(np.array(KD), 0.3, intIOR=int_, extIOR=ext)
     np.testing.assert_allclose(spec.eval(wi, wo) + bsdf.eval(wi, wo), full.eval(wi, wo), rtol=1e-13, atol=1e-300)
 
 

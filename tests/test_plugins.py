@@ -11,8 +11,8 @@ import pytest
 
 import brdflab as bl
 from brdflab import plugins
+from brdflab.cli.main import main
 from brdflab.errors import BrdflabError
-from cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "tests" / "plugins" / "uniform_lambert.py"
