@@ -3,7 +3,8 @@
 * Walker's alias table (light-triangle choice) samples its pmf: chi-square over the outcomes, and a
   table built from the wrong weights is rejected.
 * A quad light is sampled as one parallelogram: uniform by area (chi-square, with a negative control),
-  the same pdf as the triangle path.
+  the same pdf as the triangle path. Mirrored lights (vertex normals opposite the winding) skip the
+  normal interpolation, bit-identical to the interpolating path.
 * Shading points interpolate vertex normals only on meshes whose normals are bent, and match fully
   reconstructed hits.
 * Material families (one batched call per material type) reproduce the per-material evaluation.
@@ -189,6 +190,48 @@ def test_parallelogram_detection(tmp_path):
     s = _quad_light_scene(tmp_path, "v -1 2 -1\nv -0.5 2 1\nv 0.5 2 1\nv 1 2 -1\n")
     assert s.emitters[0]._quad is None
     assert load_scene(ROOT / "scenes/cbox/cbox_spheres.xml").emitters[0]._quad is not None
+
+
+def test_mirrored_lights_sample_without_normal_interpolation(tmp_path):
+    """Lights mirrored by their toWorld (the course table scene: ``scale 0.06,0.06,-1``) have vertex
+    normals that oppose their winding normal. They keep one normal per triangle (a quad light is sampled as
+    a parallelogram facing down), and two of them fused into one light set give, bit for bit, the samples
+    of the generic path that interpolates the vertex normals."""
+    import copy
+
+    from brdflab.emitter.area import AreaLightSet
+
+    light = tmp_path / "light.obj"
+    light.write_text("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nvn 0 1 0\nf 1//1 3//1 2//1\nf 1//1 4//1 3//1\n")
+    floor = tmp_path / "floor.obj"
+    floor.write_text("v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n")
+    lights = "".join(f"""<mesh type="obj"><string name="filename" value="{light}"/>
+<transform name="toWorld"><scale value="{sc},-1,{sc}"/><translate value="{x},2,0"/></transform>
+<emitter type="area"><color name="radiance" value="1,1,1"/></emitter></mesh>""" for sc, x in ((0.5, -1), (0.3, 1.5)))
+    xml = tmp_path / "s.xml"
+    xml.write_text(f"""<scene><integrator type="direct_ems"/>
+<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="8"/>
+<transform name="toWorld"><lookat origin="0,3,3" target="0,0,0" up="0,1,0"/></transform></camera>
+<mesh type="obj"><string name="filename" value="{floor}"/><bsdf type="diffuse"/></mesh>{lights}</scene>""")
+    s = load_scene(xml)
+    g = s.geometry
+    for em in s.emitters:
+        assert em._nrm is None and em._quad is not None
+        assert em._normal[1] == -1.0  # the vn lines (mirrored: pointing down), not the winding normal (up)
+        assert np.all(g.face_normals[em.tris][:, 1] > 0)
+    generic = []
+    for em in s.emitters:
+        e = copy.copy(em)
+        e._face_n, e._nrm = g.face_normals[em.tris], g.tri_nrm[:, em.tris]
+        generic.append(e)
+    rng = np.random.default_rng(23)
+    ref = np.asfortranarray(np.column_stack([rng.uniform(-3, 3, 4096), np.zeros(4096), rng.uniform(-3, 3, 4096)]))
+    u = rng.random((4096, 3))
+    fast = AreaLightSet(s.emitters, s.emitter_pmf).sample(ref, u)
+    slow = AreaLightSet(generic, s.emitter_pmf).sample(ref, u)
+    assert fast.pdf.max() > 0  # the floor below sees the lights' emitting side
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_shading_points_skip_interpolation_only_where_normals_are_flat():

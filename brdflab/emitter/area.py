@@ -8,7 +8,9 @@ parameter      tag                                       default    meaning
 =============  ========================================  =========  ==============================
 
 Emission: L_e(y → x) = radiance(uv)·scale if n_l·(y − x) < 0, else 0, with n_l the **shading** normal
-at y (interpolated ``vn``, renormalised; else the winding normal).
+at y (interpolated ``vn``, renormalised; else the winding normal). A light whose vertex normals are constant
+over each triangle (flat, or mirrored so that they oppose the winding normal) keeps one normal per triangle,
+or one for the whole light when it is planar, and is sampled without interpolating them.
 
 Sampling: a triangle with probability A_k / A (:class:`DiscreteChooser`: CDF inversion, or Walker's alias
 method for more than 8 triangles), a uniform
@@ -81,9 +83,18 @@ class AreaEmitter(Emitter):
         self._pos = geometry.tri_pos[:, tris]
         self._face_n = geometry.face_normals[tris]
         nrm = geometry.tri_nrm[:, tris] if geometry.tri_nrm is not None else None
-        # Interpolated shading normals only where they differ from the face normal (flat lights skip it).
+        # Interpolated shading normals only where they vary over a triangle (flat lights skip it). Where the
+        # three vertex normals of every triangle are equal but not the face normal (a light mirrored by its
+        # toWorld, e.g. ``scale 1,1,-1``: the winding normal points up, the vn lines down), the light's
+        # normal table holds that vertex normal, renormalised exactly as the interpolation would.
         flat = nrm is None or (np.allclose(nrm[0:3], self._face_n.T, rtol=0, atol=1e-12)
                                and np.allclose(nrm[3:9], 0.0, rtol=0, atol=1e-12))
+        if not flat and not nrm[3:9].any():
+            n0 = nrm[0:3].T
+            ln = np.sqrt(n0[:, 0] * n0[:, 0] + n0[:, 1] * n0[:, 1] + n0[:, 2] * n0[:, 2])
+            if np.all(ln > 0):
+                self._face_n = n0 / ln[:, None]
+                flat = True
         self._nrm = None if flat else nrm
         # A planar light (a quad, a disc) has one normal: no per-sample normal gather.
         planar = flat and np.allclose(self._face_n, self._face_n[:1], rtol=0, atol=1e-12)
