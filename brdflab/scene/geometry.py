@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.alloc import release_freed_memory
 from brdflab.math.frame import dot, stack_cols, take_rows
 from brdflab.scene.obj import Mesh
 
@@ -127,30 +128,60 @@ class Geometry:
         from embreex.mesh_construction import TriangleMesh
 
         offsets = np.cumsum([0] + [len(m.positions) for m in meshes])
-        self.positions = np.concatenate([m.positions for m in meshes]) if meshes else np.zeros((0, 3))
-        self.faces = (np.concatenate([m.faces + offsets[i] for i, m in enumerate(meshes)])
-                      if meshes else np.zeros((0, 3), np.int64))
-        self.tri_mesh = (np.concatenate([np.full(len(m.faces), i, np.int32) for i, m in enumerate(meshes)])
-                         if meshes else np.zeros(0, np.int32))
+        if len(meshes) == 1:  # the arrays of the one mesh, not copies (a 1 M-triangle mesh: 36 MiB less)
+            self.positions, self.faces = meshes[0].positions, meshes[0].faces.astype(np.int64, copy=False)
+        else:
+            self.positions = np.concatenate([m.positions for m in meshes]) if meshes else np.zeros((0, 3))
+            self.faces = (np.concatenate([m.faces + offsets[i] for i, m in enumerate(meshes)])
+                          if meshes else np.zeros((0, 3), np.int64))
+        if len(meshes) == 1:  # one mesh: a read-only zero view, no table
+            self.tri_mesh = np.broadcast_to(np.zeros(1, np.int32), (len(self.faces),))
+        else:
+            self.tri_mesh = (np.concatenate([np.full(len(m.faces), i, np.int32) for i, m in enumerate(meshes)])
+                             if meshes else np.zeros(0, np.int32))
         nv = len(self.positions)
-        self.normals = np.zeros((nv, 3))
-        self.uvs = np.zeros((nv, 2))
         self.mesh_has_normals = np.array([m.normals is not None for m in meshes], dtype=bool)
         self.mesh_has_uvs = np.array([m.uvs is not None for m in meshes], dtype=bool)
+        # Vertex normals and uvs (zeros where a mesh has none; a read-only zero view when no mesh has any).
+        self.normals = np.zeros((nv, 3)) if self.mesh_has_normals.any() else np.broadcast_to(np.zeros(1), (nv, 3))
+        self.uvs = np.zeros((nv, 2)) if self.mesh_has_uvs.any() else np.broadcast_to(np.zeros(1), (nv, 2))
         for i, m in enumerate(meshes):
             if m.normals is not None:
                 self.normals[offsets[i]:offsets[i + 1]] = m.normals
             if m.uvs is not None:
                 self.uvs[offsets[i]:offsets[i + 1]] = m.uvs
-        p0, p1, p2 = (self.positions[self.faces[:, k]] for k in range(3))
-        cr = np.cross(p1 - p0, p2 - p0)
-        ln = np.linalg.norm(cr, axis=1)
-        self.tri_area = 0.5 * ln
-        # (3, K): a batch's normals are one gather along axis 1 into contiguous rows (see interp_cols).
-        self.face_normal_cols = (cr / np.where(ln > 0, ln, 1.0)[:, None]).T.copy()
         # Per-triangle packed attributes, one column per triangle, gathered for a batch of hits in one call
-        # (:func:`interp_cols`): p0, p1 − p0, p2 − p0 ...
-        self.tri_pos = np.concatenate([p0, p1 - p0, p2 - p0], axis=1).T.copy()
+        # (:func:`interp_cols`): p0, p1 − p0, p2 − p0 ... filled one row at a time; the cross product, its
+        # length and the unit normal are computed row by row from them (the values np.cross and
+        # np.linalg.norm give, without their (K, 3) temporaries).
+        nt = len(self.faces)
+        self.tri_pos = np.empty((9, nt))
+        pos_rows = np.ascontiguousarray(self.positions.T)
+        for k in range(3):
+            corner = np.ascontiguousarray(self.faces[:, k])
+            for j in range(3):
+                np.take(pos_rows[j], corner, out=self.tri_pos[3 * k + j])
+                if k:
+                    self.tri_pos[3 * k + j] -= self.tri_pos[j]
+        del pos_rows
+        e1, e2 = self.tri_pos[3:6], self.tri_pos[6:9]
+        # (3, K): a batch's normals are one gather along axis 1 into contiguous rows (see interp_cols).
+        cr = self.face_normal_cols = np.empty((3, nt))
+        tmp = np.empty(nt)
+        for j in range(3):
+            a, b = (j + 1) % 3, (j + 2) % 3
+            np.multiply(e1[a], e2[b], out=cr[j])
+            np.multiply(e1[b], e2[a], out=tmp)
+            cr[j] -= tmp
+        ln = cr[0] * cr[0]
+        np.multiply(cr[1], cr[1], out=tmp)
+        ln += tmp
+        np.multiply(cr[2], cr[2], out=tmp)
+        ln += tmp
+        np.sqrt(ln, out=ln)
+        self.tri_area = 0.5 * ln
+        np.divide(cr, np.where(ln > 0, ln, 1.0), out=cr)
+        del tmp, ln, cr, e1, e2
         tri_has_n = self.mesh_has_normals[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         tri_has_uv = self.mesh_has_uvs[self.tri_mesh] if len(meshes) else np.zeros(0, bool)
         # ... vertex normals n0, n1 − n0, n2 − n0 (the face normal, constant, where the mesh has none). A
@@ -178,6 +209,7 @@ class Geometry:
         self.scale = float(np.abs(self.positions).max()) if nv else 1.0
         self.eps = RAY_EPS * max(1.0, self.scale)
         self.stats = RayStats()
+        release_freed_memory()  # the parser's and the tables' temporaries are not resident under the build
         t0 = time.perf_counter()
         self._scene = rtcs.EmbreeScene()
         if len(self.faces):

@@ -7,12 +7,16 @@ truncates n-gons after 4 vertices. Indices are 1-based; negative indices count b
 recent element (as the OBJ standard says). Each distinct (p, t, n) index triple becomes one vertex.
 If a file has any ``vn`` (or ``vt``), every face vertex must reference one, as in Nori.
 
-Parsing is vectorised: statement lines are classified once and converted with a single NumPy call per
-kind; Python touches each face line only to count its vertices.
+Parsing is vectorised. Files in the common form are scanned as bytes by NumPy and converted by one
+``numpy.loadtxt`` call per statement kind (:func:`_scan_fast`); any other file goes through the general
+parser, whose statement lines are classified once and converted with a single NumPy call per kind, Python
+touching each face line only to count its vertices. Both give the same arrays.
 """
 
 from __future__ import annotations
 
+import io
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,6 +77,28 @@ def _floats(path: Path, lines: list[str], linenos: list[int], width: int, what: 
     return out
 
 
+@dataclass
+class _Statements:
+    """The parsed statements of an OBJ file, before vertices are assembled."""
+
+    pos: np.ndarray
+    uv: np.ndarray
+    nrm: np.ndarray
+    deflines: dict[str, np.ndarray]
+    """Line numbers of the ``v``, ``vt`` and ``vn`` statements."""
+    fnos: np.ndarray
+    """Line number of each face."""
+    counts: np.ndarray
+    """Vertices of each face."""
+    idx: np.ndarray
+    """(face vertices, nslash + 1) int64 indices as written (1-based or negative; t = 0 for ``p//n``)."""
+    nslash: int
+    has_t: bool
+    has_n: bool
+    tokens: list[str] | None = None
+    """The face-vertex tokens (general parser only; for error messages)."""
+
+
 def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     """Load an OBJ file and transform it to world space.
 
@@ -93,15 +119,38 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     MeshError
         With file and line for unreadable files, malformed statements, out-of-range or zero indices,
         faces with fewer than 3 vertices, non-finite coordinates, or a file with no faces.
+
+    Notes
+    -----
+    Files in the common form (ASCII, statements at the start of their line, every face with the same
+    number of vertices) are read by :func:`_scan_fast`: NumPy on the whole byte buffer and ``numpy.loadtxt``
+    per statement kind, without a Python string per line or token (the course table's 2 MB of OBJ
+    0.14 → 0.05 s; a 1 M-triangle sphere 4.9 → 1.3 s, peak memory 771 → 190 MiB). Anything else, and every
+    file with something to report, goes through the general parser, which gives the same arrays (tested)
+    and the error messages.
     """
     path = Path(path)
     try:
-        text = path.read_text(errors="replace")
+        data = path.read_bytes()
     except FileNotFoundError:
         raise MeshError("OBJ file not found", path) from None
     except OSError as exc:
         raise MeshError(f"cannot read OBJ file: {exc.strerror}", path) from None
+    st = _scan_fast(data)
+    del data
+    if st is not None:
+        mesh = _assemble(path, st, to_world, report=False)
+        if mesh is not None:
+            return mesh
+    try:
+        text = path.read_text(errors="replace")
+    except OSError as exc:
+        raise MeshError(f"cannot read OBJ file: {exc.strerror}", path) from None
+    return _assemble(path, _parse_general(path, text), to_world, report=True)
 
+
+def _parse_general(path: Path, text: str) -> _Statements:
+    """Parse any OBJ text line by line (Python strings), raising a :class:`MeshError` for what is wrong."""
     kinds: dict[str, tuple[list[str], list[int]]] = {k: ([], []) for k in ("v", "vt", "vn", "f")}
     for i, line in enumerate(text.splitlines(), start=1):
         head, _, rest = line.strip().partition(" ")
@@ -116,10 +165,6 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     flines, fnos = kinds["f"]
     if not flines:
         raise MeshError("OBJ file has no faces ('f' statements)", path)
-    bad = ~np.isfinite(pos).all(axis=1)
-    if bad.any():
-        raise MeshError("vertex position is not finite", path, kinds["v"][1][int(np.argmax(bad))])
-
     counts = np.fromiter((len(s.split()) for s in flines), dtype=np.int64, count=len(flines))
     if counts.min() < 3:
         k = int(np.argmax(counts < 3))
@@ -139,58 +184,95 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
         idx = idx.reshape(len(tokens), nslash + 1)
     except ValueError:
         _raise_face_format(path, flines, fnos, nslash, "//" in tokens[0])
-    if len(nrm) and not has_n:
-        raise MeshError("the file has 'vn' normals, so every face vertex must reference one (p//n or p/t/n)",
-                        path, fnos[0])
-    if len(uv) and not has_t:
-        raise MeshError("the file has 'vt' coordinates, so every face vertex must reference one (p/t or p/t/n)",
-                        path, fnos[0])
+    deflines = {k: np.asarray(kinds[k][1], dtype=np.int64) for k in ("v", "vt", "vn")}
+    return _Statements(pos, uv, nrm, deflines, np.asarray(fnos, dtype=np.int64), counts, idx, nslash, has_t,
+                       has_n, tokens)
 
-    line_of_token = np.repeat(np.asarray(fnos), counts)
-    cols = [("position", len(pos), kinds["v"][1])]
+
+def _assemble(path: Path, st: _Statements, to_world: Transform | None, report: bool) -> Mesh | None:
+    """Vertices, fan-triangulated faces and world-space attributes from parsed statements. A problem
+    raises a :class:`MeshError` when ``report``, else returns None (the caller re-parses generally)."""
+    pos, uv, nrm, idx, counts, nslash, has_t, has_n = (st.pos, st.uv, st.nrm, st.idx, st.counts, st.nslash,
+                                                       st.has_t, st.has_n)
+    fnos = st.fnos
+    bad = ~np.isfinite(pos).all(axis=1)
+    if bad.any():
+        if not report:
+            return None
+        raise MeshError("vertex position is not finite", path, int(st.deflines["v"][int(np.argmax(bad))]))
+    if len(nrm) and not has_n:
+        if not report:
+            return None
+        raise MeshError("the file has 'vn' normals, so every face vertex must reference one (p//n or p/t/n)",
+                        path, int(fnos[0]))
+    if len(uv) and not has_t:
+        if not report:
+            return None
+        raise MeshError("the file has 'vt' coordinates, so every face vertex must reference one (p/t or p/t/n)",
+                        path, int(fnos[0]))
+
+    line_of_token = None
+    cols = [("position", len(pos), "v")]
     if has_t:
-        cols.append(("texture coordinate", len(uv), kinds["vt"][1]))
+        cols.append(("texture coordinate", len(uv), "vt"))
     if has_n:
-        cols.append(("normal", len(nrm), kinds["vn"][1]))
+        cols.append(("normal", len(nrm), "vn"))
     col_index = {"position": 0, "texture coordinate": 1, "normal": nslash}
-    for name, n, deflines in cols:
+    for name, n, kind in cols:
         c = idx[:, col_index[name]]
-        if np.any(c < 0):
+        neg = c < 0
+        if neg.any():
             # Relative index: −1 is the most recent element defined before this face line.
-            defined_before = np.searchsorted(np.asarray(deflines, dtype=np.int64), line_of_token[c < 0])
-            c[c < 0] += defined_before + 1
+            if line_of_token is None:
+                line_of_token = np.repeat(fnos, counts)
+            defined_before = np.searchsorted(st.deflines[kind], line_of_token[neg])
+            c[neg] += defined_before + 1
         bad = (c < 1) | (c > n)
         if bad.any():
+            if not report:
+                return None
             k = int(np.argmax(bad))
-            raise MeshError(f"face references {name} {tokens[k].split('/')[col_index[name]]}, but only "
+            if line_of_token is None:
+                line_of_token = np.repeat(fnos, counts)
+            raise MeshError(f"face references {name} {st.tokens[k].split('/')[col_index[name]]}, but only "
                             f"{n} are defined (indices are 1-based)", path, int(line_of_token[k]))
         c -= 1
 
-    # Unique (p, t, n) triples become vertices.
-    key = idx[:, 0].copy()
-    if has_t:
-        key = key * (len(uv) + 1) + idx[:, 1]
-    if has_n:
-        key = key * (len(nrm) + 1) + idx[:, nslash]
-    uniq, first, inv = np.unique(key, return_index=True, return_inverse=True)
-    vsel = idx[first]
+    # Unique (p, t, n) triples become vertices. Positions only, every one referenced (the usual
+    # position-only mesh): the vertices are the positions, in order, as np.unique would give them.
+    if not has_t and not has_n and len(pos) and np.bincount(idx[:, 0], minlength=len(pos)).all():
+        inv = idx[:, 0]
+        vsel = None
+    else:
+        key = idx[:, 0].copy()
+        if has_t:
+            key = key * (len(uv) + 1) + idx[:, 1]
+        if has_n:
+            key = key * (len(nrm) + 1) + idx[:, nslash]
+        _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+        inv = inv.reshape(-1)
+        vsel = idx[first]
 
     # Fan triangulation of every polygon: (0, i, i+1).
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    ntri = counts - 2
-    tri_poly = np.repeat(np.arange(len(counts)), ntri)
-    tri_k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri)
-    base = starts[tri_poly]
-    faces = np.stack([inv[base], inv[base + tri_k + 1], inv[base + tri_k + 2]], axis=1).astype(np.int64)
-
-    e1 = pos[idx[base + tri_k + 1, 0]] - pos[idx[base, 0]]
-    e2 = pos[idx[base + tri_k + 2, 0]] - pos[idx[base, 0]]
-    degenerate = np.flatnonzero(~(np.linalg.norm(np.cross(e1, e2), axis=1) > 0))
+    if np.all(counts == 3):
+        faces = inv.reshape(-1, 3).astype(np.int64)
+        tri_poly = None
+        corner = idx[:, 0].reshape(-1, 3)
+    else:
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        ntri = counts - 2
+        tri_poly = np.repeat(np.arange(len(counts)), ntri)
+        tri_k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri)
+        base = starts[tri_poly]
+        faces = np.stack([inv[base], inv[base + tri_k + 1], inv[base + tri_k + 2]], axis=1).astype(np.int64)
+        corner = np.stack([idx[base, 0], idx[base + tri_k + 1, 0], idx[base + tri_k + 2, 0]], axis=1)
+    degenerate = _degenerate(pos, corner)
     if len(degenerate):
-        warnings.warn(f"{path}:{fnos[tri_poly[degenerate[0]]]}: {len(degenerate)} degenerate (zero-area) "
+        line = fnos[degenerate[0] if tri_poly is None else tri_poly[degenerate[0]]]
+        warnings.warn(f"{path}:{line}: {len(degenerate)} degenerate (zero-area) "
                       f"triangle{'s' if len(degenerate) > 1 else ''}; they are kept but can never be hit",
-                      stacklevel=2)
-    positions = pos[vsel[:, 0]]
+                      stacklevel=3)
+    positions = pos if vsel is None else pos[vsel[:, 0]]
     uvs = uv[vsel[:, 1]] if has_t else None
     normals = nrm[vsel[:, nslash]] if has_n else None
     if to_world is not None and not to_world.is_identity():
@@ -200,9 +282,145 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     if normals is not None:
         ln = np.linalg.norm(normals, axis=1, keepdims=True)
         if not np.all(np.isfinite(normals)) or np.any(ln == 0):
+            if not report:
+                return None
             raise MeshError("vertex normal is zero or not finite", path)
         normals = normals / ln
     return Mesh(positions, faces, normals, uvs, str(path))
+
+
+#: Triangles per block of the degenerate-triangle test (bounds its temporaries).
+_BLOCK = 1 << 17
+
+
+def _degenerate(pos: np.ndarray, corner: np.ndarray) -> np.ndarray:
+    """Indices of the triangles (rows of position indices ``corner``) whose cross product has no length."""
+    out = []
+    for a in range(0, len(corner), _BLOCK):
+        c = corner[a:a + _BLOCK]
+        p0 = pos[c[:, 0]]
+        e1 = pos[c[:, 1]] - p0
+        e2 = pos[c[:, 2]] - p0
+        out.append(a + np.flatnonzero(~(np.linalg.norm(np.cross(e1, e2), axis=1) > 0)))
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
+#: Most runs of consecutive same-kind statement lines the fast scanner joins.
+_MAX_RUNS = 4096
+#: Bytes per block when counting tokens per line.
+_CHUNK = 1 << 22
+#: A statement keyword followed by a tab or alone on its line: the general parser decides what it means.
+_ODD_KEYWORD = re.compile(rb"(?m)^(?:v|vt|vn|f)(?:\t|$)")
+
+
+def _scan_fast(data: bytes) -> _Statements | None:
+    """Parse an OBJ file in the common form with NumPy, or return None when it is not in that form.
+
+    The form: ASCII; lines end in ``\n`` (or ``\r\n``); statements start at the beginning of their line with
+    their keyword and a space; every face has the same number of vertices. Each statement kind is joined
+    from its runs of lines and converted by one ``numpy.loadtxt`` call; faces are checked as the general
+    parser checks them (slash counts), plus their vertex count and the number of indices per line.
+    """
+    if not data.isascii() or any(c in data for c in (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")):
+        return None
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n")
+        if b"\r" in data:
+            return None
+    if not data.endswith(b"\n"):
+        data += b"\n"
+    if data[:1] in (b" ", b"\t") or b"\n " in data or b"\n\t" in data or _ODD_KEYWORD.search(data):
+        return None
+    d = np.frombuffer(data, np.uint8)
+    ends = np.flatnonzero(d == 10)
+    starts = np.empty_like(ends)
+    starts[0] = 0
+    starts[1:] = ends[:-1] + 1
+    last = len(d) - 1
+    c0 = d[starts]
+    c1 = d[np.minimum(starts + 1, last)]
+    c2 = d[np.minimum(starts + 2, last)]
+    v = c0 == ord("v")
+    masks = {"v": v & (c1 == ord(" ")), "vt": v & (c1 == ord("t")) & (c2 == ord(" ")),
+             "vn": v & (c1 == ord("n")) & (c2 == ord(" ")), "f": (c0 == ord("f")) & (c1 == ord(" "))}
+    del d, c0, c1, c2, v
+    blocks, lines = {}, {}
+    for kind, mask in masks.items():
+        li = np.flatnonzero(mask)
+        runs = np.flatnonzero(np.diff(li) != 1) + 1
+        if len(runs) >= _MAX_RUNS:
+            return None
+        lo = np.concatenate([[0], runs]) if len(li) else np.zeros(0, np.int64)
+        hi = np.concatenate([runs, [len(li)]]) if len(li) else np.zeros(0, np.int64)
+        blocks[kind] = b"".join(data[starts[li[a]]:ends[li[b - 1]] + 1] for a, b in zip(lo, hi, strict=True))
+        lines[kind] = li + 1
+    del data, starts, ends, masks
+    arrays = {}
+    for kind, width in (("v", 3), ("vt", 2), ("vn", 3)):
+        arrays[kind] = _loadtxt(blocks.pop(kind), len(lines[kind]), width, np.float64)
+        if arrays[kind] is None:
+            return None
+    fblock, nf = blocks.pop("f"), len(lines["f"])
+    if nf == 0:
+        return None
+    counts = _tokens_per_line(fblock, nf) - 1
+    nv = int(counts[0])
+    if nv < 3 or np.any(counts != nv):
+        return None
+    first = fblock.split(None, 2)[1]
+    nslash = first.count(b"/")
+    double = b"//" in first
+    if nslash > 2:
+        return None
+    ntok = nf * nv
+    if fblock.count(b"/") != nslash * ntok or (double and fblock.count(b"//") != ntok):
+        return None
+    parts = nslash + 1 - int(double)
+    if nslash:
+        fblock = fblock.replace(b"/", b" ")
+        if np.any(_tokens_per_line(fblock, nf) != 1 + nv * parts):
+            return None
+    idx = _loadtxt(fblock, nf, nv * parts, np.int64)
+    del fblock
+    if idx is None:
+        return None
+    idx = idx.reshape(ntok, parts)
+    if double:
+        idx = np.insert(idx, 1, 0, axis=1)
+    deflines = {k: lines[k] for k in ("v", "vt", "vn")}
+    return _Statements(arrays["v"], arrays["vt"], arrays["vn"], deflines, lines["f"],
+                       np.full(nf, nv, np.int64), idx, nslash, nslash >= 1 and not double, nslash == 2)
+
+
+def _loadtxt(block: bytes, nlines: int, width: int, dtype: type) -> np.ndarray | None:
+    """The ``width`` numbers after the keyword of each of the ``nlines`` lines of ``block`` (None if a line
+    has fewer or one is not a number; extra numbers are ignored, as the general parser ignores them)."""
+    if nlines == 0:
+        return np.zeros((0, width), dtype)
+    try:
+        arr = np.loadtxt(io.BytesIO(block), dtype=dtype, comments=None, usecols=range(1, width + 1), ndmin=2)
+    except ValueError:
+        return None
+    return arr if arr.shape == (nlines, width) else None
+
+
+def _tokens_per_line(block: bytes, nlines: int) -> np.ndarray:
+    """Whitespace-separated tokens on each line of ``block`` (lines end in ``\n``), in blocks of
+    :data:`_CHUNK` bytes."""
+    out = np.empty(nlines, np.int64)
+    line = pos = 0
+    n = len(block)
+    while pos < n:
+        end = block.find(b"\n", min(pos + _CHUNK, n) - 1)
+        b = np.frombuffer(block, np.uint8, count=end + 1 - pos, offset=pos)
+        sep = (b == 32) | (b == 9) | (b == 10)
+        start = ~sep
+        start[1:] &= sep[:-1]
+        before = np.searchsorted(np.flatnonzero(start), np.flatnonzero(b == 10))
+        out[line:line + len(before)] = np.diff(before, prepend=0)
+        line += len(before)
+        pos = end + 1
+    return out
 
 
 def _raise_face_format(path: Path, flines: list[str], fnos: list[int], nslash: int, double: bool) -> None:
