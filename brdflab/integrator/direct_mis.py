@@ -50,6 +50,10 @@ class DirectMIS(Integrator):
     KNOWN = {"heuristic": "string"}
 
     def __init__(self, heuristic: str = "balance") -> None:
+        if heuristic not in ("balance", "power"):
+            from brdflab.errors import BrdflabError
+
+            raise BrdflabError(f"direct_mis: heuristic must be 'balance' or 'power', got '{heuristic[:40]}'")
         self.heuristic = heuristic
         self.beta = 1.0 if heuristic == "balance" else 2.0
 

@@ -1,0 +1,387 @@
+"""Is a render an unbiased estimate of what its scene describes? (``brdflab check``)
+
+Let x̄ be the user's image (the mean of J ≥ 1 renders with different seeds) and ȳ brdflab's estimate
+(the mean of K independent runs with their own seeds, or a given reference). The two are independent,
+so for every 16 × 16 block b and channel c the difference of block means
+
+    D_b = mean_b(x̄) − mean_b(ȳ),   Var D_b = Var mean_b(x̄) + Var mean_b(ȳ)
+
+has expectation 0 when the user's renderer is unbiased. Var D_b is estimated in one of two ways:
+
+``welch`` (J ≥ 2 user renders and K ≥ 2 runs, or a given variance image of the reference)
+    each side from its own run-to-run pixel variance pooled over the block with the correlation factor
+    of :mod:`brdflab.stats.blocks` eq. (1); the statistic D_b/√Var D_b is referred to Student's t with
+    Welch–Satterthwaite degrees of freedom (few runs per side).
+``residual`` (one user render)
+    from the spread of the pixel residuals r = x̄ − ȳ around their block mean:
+    Var D_b = F · Σ_b (r − r̄_b)² / ((n − F) n). This needs neither the user's sample count nor their
+    integrator, contains brdflab's own noise, and is **conservative**: a bias that varies inside a block
+    (or with the image content) only widens it, heavy tails lower the degrees of freedom (eq. (2) there),
+    each block's variance is raised to its 3 × 3 neighbourhood's median relative variance (a render
+    that happened to draw none of its rare large samples in a block cannot show their variance), and,
+    when the user's spp is known, to brdflab's own variance at that spp (the scene's integrator).
+
+Decision (one family at level α, default 0.01): the whole-image mean test (scalar (R+G+B)/3, normal
+reference distribution; the relative bias (mean x̄ / mean ȳ − 1) with its 99 % interval) gets α/2, the
+3 × (number of blocks) block tests share α/2 by Holm's step-down procedure; the verdict's p-value is
+the Bonferroni combination min(1, 2 · min(p_mean, min Holm-adjusted p_block)). The false-alarm rate is
+therefore at most α whatever the dependence between blocks; it is measured in tests/test_check.py
+(synthetic and rendered images, exact binomial bounds) and benchmarks/check_power.py.
+
+Power: the smallest relative bias of the image mean detected with 80 % probability is
+(z_{1−α/4} + z_{0.8}) · sd(mean D)/mean ȳ; per block the same with the block's t-quantile at the first
+Holm level α/(2m); the median over blocks is reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from brdflab.errors import ImageError
+from brdflab.stats import blocks as B
+from brdflab.stats.intervals import holm, welch_df
+from brdflab.stats.jobs import RenderJob, run_job, run_seed
+
+#: Family-wise false-alarm level of a check.
+ALPHA = 0.01
+#: Default block side in pixels (see :mod:`brdflab.stats.blocks`).
+BLOCK = 16
+#: Power reported for the smallest detectable bias.
+POWER = 0.8
+
+
+@dataclass
+class Estimate:
+    """A mean image with what is known about its noise.
+
+    ``runs`` holds the individual runs (K, H, W, 3) when there are several; ``pixel_var`` the variance
+    of each pixel of ``mean`` when it is given instead (a reference's variance image).
+    """
+
+    mean: np.ndarray
+    runs: np.ndarray | None = None
+    pixel_var: np.ndarray | None = None
+    label: str = ""
+    run_spp: int = 0
+    """Samples per pixel of one run (for the variance model of a single user render)."""
+
+    @classmethod
+    def from_runs(cls, images: list[np.ndarray], label: str = "", run_spp: int = 0) -> Estimate:
+        """Estimate from independent runs."""
+        a = np.stack([np.asarray(i, dtype=np.float64) for i in images])
+        return cls(a.mean(axis=0), a if len(images) >= 2 else None, None, label, run_spp)
+
+
+@dataclass
+class CheckResult:
+    """Everything ``brdflab check`` decided and measured (JSON via :meth:`to_dict`)."""
+
+    consistent: bool
+    p_value: float
+    bias: float
+    bias_ci: tuple[float, float]
+    bias_p: float
+    method: str
+    block: int
+    alpha: float
+    blocks: int
+    dark_blocks: int
+    bright_blocks: int
+    min_detectable_bias: float
+    min_detectable_block_bias: float
+    correlation_factor: float
+    nonfinite: int
+    signed_map: np.ndarray = field(repr=False)
+    """(By, Bx): −1 significantly too dark, +1 too bright, 0 consistent."""
+    z_map: np.ndarray = field(repr=False)
+    """(By, Bx): signed z-score of the most significant channel."""
+    flagged: list[dict] = field(default_factory=list)
+    user_renders: int = 1
+    reference_runs: int = 0
+    reference_spp: int = 0
+    seconds: float = 0.0
+    reference_label: str = ""
+
+    def verdict(self) -> str:
+        """One line: consistent/biased, p-value, mean bias with its 99 % interval, block counts."""
+        word = "consistent" if self.consistent else "BIASED"
+        lo, hi = self.bias_ci
+        s = (f"{word}: p = {self.p_value:.3g}; image mean {100 * self.bias:+.2f} % "
+             f"(99 % CI {100 * lo:+.2f} … {100 * hi:+.2f} %)")
+        if self.dark_blocks or self.bright_blocks:
+            s += f"; {self.dark_blocks} blocks too dark, {self.bright_blocks} too bright of {self.blocks}"
+        else:
+            s += f"; no block of {self.blocks} differs"
+        s += (f"; detectable: mean bias ≥ {100 * self.min_detectable_bias:.2g} %, one {self.block}×{self.block} "
+              f"block ≥ {100 * self.min_detectable_block_bias:.2g} %")
+        return s
+
+    def to_dict(self) -> dict:
+        """Plain-dict form (maps as nested lists)."""
+        d = asdict(self)
+        d["signed_map"] = self.signed_map.astype(int).tolist()
+        d["z_map"] = np.round(self.z_map, 3).tolist()
+        d["bias_ci"] = list(self.bias_ci)
+        d["verdict"] = self.verdict()
+        return d
+
+
+def _with_mean_channel(a: np.ndarray) -> np.ndarray:
+    """(…, 3) → (…, 4): R, G, B and their mean (the whole-image test's scalar)."""
+    return np.concatenate([a, a.mean(axis=-1, keepdims=True)], axis=-1)
+
+
+def _side_from_runs(runs: np.ndarray, valid: np.ndarray, block: int):
+    """Variance (and df) of the block means of the mean of ``runs`` (K, H, W, 4); image-mean variance."""
+    k = runs.shape[0]
+    e = runs - runs.mean(axis=0)
+    e[:, ~valid] = 0.0
+    cnt = B.block_sum(valid[..., None].astype(np.float64), block)  # (By, Bx, 1)
+    s2 = B.block_sum((e * e).sum(axis=0), block) / (k - 1)  # Σ_p per-pixel variance of one run
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sig = np.where(cnt > 0, s2 / np.maximum(cnt, 1), 0.0)
+        z = e / np.sqrt(np.where(B.expand(sig, block, valid.shape) > 0, B.expand(sig, block, valid.shape), 1.0))
+    rho = B.correlation(z, valid)
+    f = B.correlation_factor(rho, block, runs.shape[-1])
+    f_inf = B.correlation_factor(rho, None, runs.shape[-1])
+    var = f * s2 / np.maximum(cnt, 1) ** 2 / k
+    df = B.kurtosis_df(e, valid, block, cnt * (k - 1) / f)
+    n = valid.sum()
+    mean_var = f_inf * s2.sum(axis=(0, 1)) / n**2 / k
+    return var, df, mean_var, float(f[:3].mean())
+
+
+def _residual(r: np.ndarray, valid: np.ndarray, block: int):
+    """Variance (and df) of the block means of r = x̄ − ȳ from its within-block spread (one render)."""
+    r = np.where(valid[..., None], r, 0.0)
+    cnt = B.block_sum(valid[..., None].astype(np.float64), block)
+    n = np.maximum(cnt, 1)
+    mean_b = B.block_sum(r, block) / n
+    centred = r - B.expand(mean_b, block, valid.shape)
+    centred[~valid] = 0.0
+    ss = B.block_sum(centred * centred, block)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sd = np.sqrt(B.expand(ss / n, block, valid.shape))
+        z = np.where(sd > 0, centred / np.where(sd > 0, sd, 1.0), 0.0)[None]
+    rho = B.correlation(z, valid)
+    c = r.shape[-1]
+    f = B.correlation_factor(rho, block, c, centred_in=block * block)
+    f_inf = B.correlation_factor(rho, None, c, centred_in=block * block)
+    sig = ss / np.maximum(n - f, 1.0)  # E Σ (r − r̄)² = (n − F) σ²
+    var = f * sig / n
+    df = B.kurtosis_df(centred[None], valid, block, np.maximum(n / f - 1.0, 1.0))
+    mean_var = f_inf * (sig * cnt).sum(axis=(0, 1)) / valid.sum() ** 2
+    return var, df, mean_var, float(f[:3].mean())
+
+
+def _pool_neighbours(var: np.ndarray, refb: np.ndarray, cnt: np.ndarray) -> np.ndarray:
+    """Variance of each block raised to the median relative variance of its 3 × 3 neighbourhood.
+
+    One render cannot show the variance of a block where its rare large samples (a BSDF sample finding
+    a small light) happened not to occur: there the spread of the residuals is only brdflab's. Such
+    regions are larger than a block, so each block's variance is taken as at least
+    median_{3×3}(Var/ȳ²) · ȳ_b² (conservative: it only widens intervals).
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where((refb > 0) & (cnt > 0), var / (refb * refb), np.nan)
+    by, bx, c = rel.shape
+    pad = np.pad(rel, ((1, 1), (1, 1), (0, 0)), constant_values=np.nan)
+    stack = np.stack([pad[i:i + by, j:j + bx] for i in range(3) for j in range(3)])
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN neighbourhoods (black regions)
+        med = np.nanmedian(stack, axis=0)
+    pooled = np.where(np.isfinite(med), med * refb * refb, 0.0)
+    return np.maximum(var, pooled)
+
+
+def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK, alpha: float = ALPHA,
+                 user_spp: int | None = None) -> CheckResult:
+    """Test whether the user's render(s) ``user`` and brdflab's ``estimate`` have the same expectation.
+
+    Parameters
+    ----------
+    user
+        One or more (H, W, 3) renders of the same scene with different seeds.
+    estimate
+        brdflab's independent estimate (see :class:`Estimate`).
+    block
+        Block side in pixels.
+    alpha
+        Family-wise false-alarm level.
+    user_spp
+        Samples per pixel of each user render, if known: with one render, the variance is then also
+        predicted from brdflab's run-to-run variance scaled to that sample count, and the larger of the
+        two estimates is used (see module docstring).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(5)
+    >>> truth = np.full((64, 64, 3), 0.5)
+    >>> draw = lambda: truth * rng.gamma(4.0, 0.25, truth.shape)
+    >>> ok = check_images([draw()], Estimate.from_runs([draw() for _ in range(4)]))
+    >>> ok.consistent
+    True
+    >>> check_images([0.9 * draw()], Estimate.from_runs([draw() for _ in range(4)])).consistent
+    False
+    """
+    if not user:
+        raise ImageError("no user render given")
+    shape = estimate.mean.shape
+    for u in user:
+        if u.shape != shape:
+            raise ImageError(f"image is {u.shape[1]}×{u.shape[0]}, but the scene renders "
+                             f"{shape[1]}×{shape[0]}")
+    xs = np.stack([np.asarray(u, dtype=np.float64) for u in user])
+    finite = np.isfinite(xs).all(axis=(0, 3)) & np.isfinite(estimate.mean).all(axis=2)
+    nonfinite = int((~finite).sum())
+    if not finite.any():
+        raise ImageError("every pixel of the image is NaN or infinite")
+    xs[:, ~finite] = 0.0
+    xs4 = _with_mean_channel(xs)
+    y4 = _with_mean_channel(np.where(finite[..., None], estimate.mean, 0.0))
+    x4 = xs4.mean(axis=0)
+    cnt = B.block_sum(finite[..., None].astype(np.float64), block)
+    n = np.maximum(cnt, 1)
+    diff = B.block_sum(x4 - y4, block) / n
+    refb = B.block_sum(y4, block) / n
+    # Residuals for variance estimation, with one global multiplicative fit r ≈ c·ȳ removed per channel:
+    # an image uniformly too dark would otherwise pass its bias, through the variation of ȳ inside
+    # each block, for noise. (One coefficient over all pixels absorbs a negligible part of the noise.)
+    r4 = x4 - y4
+    with np.errstate(invalid="ignore", divide="ignore"):
+        yy = np.einsum("hwc,hwc->c", y4, y4)
+        c_fit = np.where(yy > 0, np.einsum("hwc,hwc->c", r4, y4) / np.where(yy > 0, yy, 1.0), 0.0)
+    r_var = r4 - c_fit * y4
+    welch = len(user) >= 2 and (estimate.runs is not None or estimate.pixel_var is not None)
+    if welch:
+        vx, dfx, mvx, fx = _side_from_runs(xs4, finite, block)
+        if estimate.runs is not None:
+            vy, dfy, mvy, _ = _side_from_runs(_with_mean_channel(estimate.runs), finite, block)
+        else:
+            pv = _with_mean_channel(np.where(finite[..., None], estimate.pixel_var, 0.0))
+            pv[..., 3] = estimate.pixel_var.mean(axis=-1)  # conservative: channels fully correlated
+            fac = np.array([fx] * 4)
+            vy = fac * B.block_sum(pv, block) / n**2
+            dfy = np.full_like(vy, np.inf)
+            mvy = fac * pv.sum(axis=(0, 1)) / finite.sum() ** 2
+        var, df = vx + vy, welch_df([vx, vy], [dfx, dfy])
+        mean_var = mvx + mvy
+        fac_used = fx
+        method = "welch"
+    elif estimate.runs is not None:
+        # One render, brdflab's runs known: the user's noise is brdflab's per-run noise scaled to the
+        # user's spp, times one global factor η measured from the residuals (robust median over blocks).
+        k = estimate.runs.shape[0]
+        vy, dfy, mvy, fac_used = _side_from_runs(_with_mean_channel(estimate.runs), finite, block)
+        vres, _, _, _ = _residual(r_var, finite, block)
+        scale = k * (estimate.run_spp / user_spp if user_spp and estimate.run_spp else 1.0)
+        model = vy * scale
+        ok = (model[..., :3] > 0) & (cnt > 0)
+        ratio = vres[..., :3][ok] / (model[..., :3][ok] + vy[..., :3][ok])
+        eta = max(1.0, float(np.median(ratio))) if ratio.size else 1.0
+        vx = eta * model
+        var, df = vx + vy, welch_df([vx, vy], [dfy, dfy])
+        mean_var = (eta * scale + 1.0) * mvy
+        method = f"model (brdflab's noise at the user's spp × η = {eta:.2f})"
+    else:
+        var, df, mean_var, fac_used = _residual(r_var, finite, block)
+        var = _pool_neighbours(var, refb, cnt)
+        method = "residual"
+    # Block tests on R, G, B.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(var > 0, diff / np.sqrt(np.where(var > 0, var, 1.0)), np.where(diff != 0, np.inf, 0.0))
+    t = np.where(cnt > 0, t, 0.0)
+    tb = t[..., :3]
+    p_block = 2.0 * stats.t.sf(np.abs(tb), np.broadcast_to(df[..., :3], tb.shape))
+    rej, p_adj = holm(p_block, alpha / 2)
+    # Whole-image mean test on (R+G+B)/3.
+    m_ref = float(y4[..., 3][finite].mean())
+    m_diff = float((x4[..., 3] - y4[..., 3])[finite].mean())
+    sd = math.sqrt(max(float(mean_var[3]), 0.0))
+    z_mean = m_diff / sd if sd > 0 else (math.inf if m_diff else 0.0)
+    p_mean = float(2 * stats.norm.sf(abs(z_mean)))
+    q99 = stats.norm.ppf(0.995)
+    bias = m_diff / m_ref if m_ref != 0 else math.nan
+    ci = ((m_diff - q99 * sd) / m_ref, (m_diff + q99 * sd) / m_ref) if m_ref > 0 else (math.nan, math.nan)
+    p_value = float(min(1.0, 2 * min(p_mean, float(p_adj.min()) if p_adj.size else 1.0)))
+    consistent = not (p_mean <= alpha / 2 or rej.any())
+    # Signed map: the most significant rejected channel of each block.
+    best = np.argmax(np.abs(tb), axis=-1)
+    zbest = np.take_along_axis(tb, best[..., None], axis=-1)[..., 0]
+    signed = np.where(rej.any(axis=-1), np.sign(zbest), 0).astype(np.int8)
+    # Power.
+    zp = stats.norm.ppf(POWER)
+    mdb = (stats.norm.ppf(1 - alpha / 4) + zp) * sd / m_ref if m_ref > 0 else math.nan
+    m_tests = max(p_block.size, 1)
+    tcrit = stats.t.isf(alpha / 2 / m_tests / 2, df[..., :3])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = (tcrit + zp) * np.sqrt(var[..., :3]) / np.abs(refb[..., :3])
+    rel_best = np.where((refb[..., :3] > 0) & np.isfinite(rel), rel, np.inf).min(axis=-1)
+    mdbb = float(np.median(rel_best[np.isfinite(rel_best)])) if np.isfinite(rel_best).any() else math.nan
+    flagged = []
+    h, w = shape[:2]
+    for by, bx in zip(*np.nonzero(signed), strict=True):
+        c = int(best[by, bx])
+        flagged.append({"x": int(bx * block), "y": int(by * block), "w": int(min(block, w - bx * block)),
+                        "h": int(min(block, h - by * block)), "channel": "RGB"[c],
+                        "sign": "too bright" if signed[by, bx] > 0 else "too dark",
+                        "t": float(tb[by, bx, c]), "p_adjusted": float(p_adj[by, bx, c]),
+                        "relative_difference": float(diff[by, bx, c] / refb[by, bx, c]) if refb[by, bx, c] else None})
+    return CheckResult(
+        consistent=consistent, p_value=p_value, bias=bias, bias_ci=ci, bias_p=p_mean,
+        method=method, block=block, alpha=alpha, blocks=int(signed.size),
+        dark_blocks=int((signed < 0).sum()), bright_blocks=int((signed > 0).sum()),
+        min_detectable_bias=float(mdb), min_detectable_block_bias=mdbb, correlation_factor=fac_used,
+        nonfinite=nonfinite, signed_map=signed, z_map=np.where(cnt[..., 0] > 0, zbest, 0.0),
+        flagged=flagged, user_renders=len(user))
+
+
+def reference_jobs(scene: Path, integrator: str, spp: int, runs: int, seed: int,
+                   resolution: tuple[int, int] | None = None, workers: int | None = None) -> list[RenderJob]:
+    """The independent brdflab runs of a check: ``runs`` jobs of ``spp`` samples with their own seeds."""
+    return [RenderJob(Path(scene), integrator, spp, run_seed(seed, k, "check"), resolution, workers)
+            for k in range(runs)]
+
+
+def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 32, runs: int = 4,
+              seed: int = 0, ref: np.ndarray | None = None, ref_var: np.ndarray | None = None,
+              block: int = BLOCK, alpha: float = ALPHA, workers: int | None = None,
+              map_fn: Callable = map, progress: Callable[[str], None] | None = None,
+              resolution: tuple[int, int] | None = None, user_spp: int | None = None) -> CheckResult:
+    """Render brdflab's estimate (unless ``ref`` is given) and run :func:`check_images`.
+
+    The ``runs`` renders are independent jobs (:func:`reference_jobs`) evaluated by ``map_fn``;
+    ``resolution`` (width, height) replaces the scene camera's (quick checks, tests).
+    """
+    say = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    if ref is not None:
+        est = Estimate(np.asarray(ref, dtype=np.float64), None,
+                       None if ref_var is None else np.asarray(ref_var, dtype=np.float64), "given reference")
+        k = 0
+    else:
+        h, w = user[0].shape[:2]
+        jobs = reference_jobs(scene, integrator, spp, runs, seed, resolution, workers)
+        images = []
+        for i, (img, secs) in enumerate(map_fn(run_job, jobs)):
+            images.append(img)
+            say(f"brdflab run {i + 1}/{runs}: {integrator}, {spp} spp, {secs:.1f} s")
+        if images[0].shape[:2] != (h, w):
+            raise ImageError(f"the image is {w}×{h} pixels but the scene renders "
+                             f"{images[0].shape[1]}×{images[0].shape[0]}")
+        est = Estimate.from_runs(images, f"brdflab {integrator}, {runs} runs × {spp} spp, independent seeds", spp)
+        k = runs
+    res = check_images(user, est, block, alpha, user_spp)
+    res.reference_runs, res.reference_spp = k, spp if k else 0
+    res.reference_label = est.label
+    res.seconds = time.perf_counter() - t0
+    res.estimate = est.mean.astype(np.float32)  # for the page
+    return res

@@ -1,0 +1,92 @@
+"""``brdflab check RENDER.exr … --scene SCENE.xml``: is this render an unbiased estimate of the scene?"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from brdflab.errors import BrdflabError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``check`` sub-command."""
+    p = sub.add_parser(
+        "check", help="test whether renders are unbiased (p-value, block map, HTML)",
+        description="Compare one or more renders of SCENE (different seeds) with brdflab's own independent "
+        "estimate, block by block and for the image mean, with a family-wise false-alarm level. Exit status: "
+        "0 consistent, 1 biased, 2 usage error.")
+    p.add_argument("renders", type=Path, nargs="+", metavar="RENDER.exr")
+    p.add_argument("--scene", type=Path, required=True, help="the Nori scene the renders show")
+    p.add_argument("--integrator", help="brdflab integrator of the estimate (default: the scene's; NAME or "
+                   "NAME:VARIANT, e.g. direct_mis:power)")
+    p.add_argument("--ref", type=Path, help="use this reference EXR instead of rendering brdflab's estimate")
+    p.add_argument("--ref-var", type=Path, help="per-pixel variance EXR of the reference mean (with --ref)")
+    p.add_argument("--spp", type=int, default=32, help="samples per pixel of each brdflab run (default 32)")
+    p.add_argument("--runs", type=int, default=4, help="independent brdflab runs (default 4); more spp or runs "
+                   "cost proportionally more time and detect smaller biases")
+    p.add_argument("--user-spp", type=int, help="samples per pixel of your render(s) (default: the EXR's "
+                   "brdflab_spp attribute, else the scene's sampleCount); with one render, brdflab's variance "
+                   "at this spp is a lower bound of the variance used")
+    p.add_argument("--block", type=int, default=16, help="block side in pixels (default 16)")
+    p.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm level (default 0.01)")
+    p.add_argument("--seed", type=int, default=0, help="base seed of brdflab's runs")
+    p.add_argument("--workers", type=int)
+    p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
+                   "check-<stem>/ beside the first render)")
+    p.add_argument("--quiet", action="store_true", help="only the verdict line")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the check; exit status 0 consistent, 1 biased."""
+    from brdflab.imageio import read_exr
+    from brdflab.report.check_page import write_check
+    from brdflab.scene.loader import load_scene
+    from brdflab.stats.check import run_check
+    from brdflab.stats.jobs import make_integrator
+
+    if args.spp < 1 or args.runs < 1:
+        raise BrdflabError("--spp and --runs must be at least 1")
+    if args.block < 2:
+        raise BrdflabError("--block must be at least 2 pixels")
+    if not 0 < args.alpha < 1:
+        raise BrdflabError(f"--alpha must be in (0, 1), got {args.alpha}")
+    if args.ref_var and not args.ref:
+        raise BrdflabError("--ref-var needs --ref")
+    scene = load_scene(args.scene)
+    integrator = args.integrator or scene.integrator_type
+    make_integrator(integrator)
+    images = [read_exr(p) for p in args.renders]
+    ref = read_exr(args.ref) if args.ref else None
+    ref_var = read_exr(args.ref_var) if args.ref_var else None
+    cam = scene.camera
+    for p, img in zip(args.renders, images, strict=True):
+        if img.shape[:2] != (cam.height, cam.width):
+            raise BrdflabError(f"{p}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
+                               f"{cam.width}×{cam.height}")
+    for p, img in ((args.ref, ref), (args.ref_var, ref_var)):
+        if img is not None and img.shape[:2] != (cam.height, cam.width):
+            raise BrdflabError(f"{p}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
+                               f"{cam.width}×{cam.height}")
+    user_spp = args.user_spp or _spp_attribute(args.renders[0]) or scene.spp
+    say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
+    if ref is None:
+        say(f"brdflab estimate: {args.runs} runs × {args.spp} spp of {integrator} at {cam.width}×{cam.height}")
+    res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
+                    args.alpha, args.workers, progress=say, user_spp=user_spp)
+    out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
+    page = write_check(out, args.renders, images, res, args.scene)
+    print(res.verdict())
+    say(f"cost: {res.seconds:.1f} s; wrote {page} and {out / 'check.json'}")
+    return 0 if res.consistent else 1
+
+
+def _spp_attribute(path: Path) -> int | None:
+    """The ``brdflab_spp`` header attribute of an EXR written by brdflab, if any."""
+    from brdflab.imageio import read_exr_header
+
+    try:
+        return int(read_exr_header(path).get("brdflab_spp", 0)) or None
+    except (ValueError, TypeError):
+        return None

@@ -1,0 +1,167 @@
+"""``brdflab check``: false-alarm rate (exact binomial bounds), power against known biases, CLI contract."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.ndimage import gaussian_filter
+
+from brdflab.imageio import write_exr
+from brdflab.stats import blocks as B
+from brdflab.stats.check import Estimate, check_images
+from brdflab.stats.intervals import holm
+from brdflab.stats.jobs import RenderJob, run_job, run_seed
+from cli.main import main
+from tests.conftest import ROOT
+
+CBOX = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"
+H, W = 64, 96
+
+
+def _truth() -> np.ndarray:
+    yy, xx = np.mgrid[0:H, 0:W]
+    t = np.stack([0.2 + 0.8 * xx / W, 0.5 + 0.3 * np.sin(yy / 9.0), 0.1 + 0 * xx], -1)
+    t[:, :20] = 0.0  # a black region: zero variance on both sides
+    return t
+
+
+TRUTH = _truth()
+
+
+def _draw(rng: np.random.Generator, spp: int = 16) -> np.ndarray:
+    """A synthetic MC image: per-pixel means of heavy-tailed (Gamma(½)) samples, then a Gaussian filter
+    (correlates neighbouring pixels like Nori's reconstruction filter)."""
+    img = TRUTH * rng.gamma(0.5, 2.0, (spp, H, W, 1)).mean(axis=0)
+    return np.stack([gaussian_filter(img[..., c], 0.6) for c in range(3)], -1)
+
+
+def _binom_max(n: int, rate: float = 0.01, risk: float = 0.02) -> int:
+    """Largest false-alarm count compatible with ``rate`` over n trials (exceeded with prob. < risk)."""
+    return int(stats.binom.isf(risk, n, rate))
+
+
+def test_holm_and_blocks_by_hand():
+    rej, adj = holm(np.array([0.01, 0.04, 0.03, 0.5]), 0.05)
+    assert adj.tolist() == pytest.approx([0.04, 0.09, 0.09, 0.5])
+    assert rej.tolist() == [True, False, False, False]
+    a = np.arange(5 * 7, dtype=float).reshape(5, 7, 1)
+    s = B.block_sum(a, 4)
+    assert s.shape == (2, 2, 1) and s.sum() == a.sum() and s[0, 0, 0] == a[:4, :4].sum()
+    # Independent unit noise: F = 1; a 3-tap box filter along x: F∞ = 3 (1 + 2·2/3).
+    rng = np.random.default_rng(run_seed(16, 0, "check"))
+    z = rng.standard_normal((1, 200, 200, 1))
+    valid = np.ones((200, 200), bool)
+    assert B.correlation_factor(B.correlation(z, valid), None, 1)[0] == pytest.approx(1.0, abs=0.1)
+    zb = (z + np.roll(z, 1, axis=2) + np.roll(z, -1, axis=2)) / np.sqrt(3)
+    assert B.correlation_factor(B.correlation(zb, valid), None, 1)[0] == pytest.approx(3.0, abs=0.15)
+
+
+@pytest.mark.parametrize("renders", [1, 2])
+def test_false_alarm_rate_synthetic(renders):
+    """Unbiased synthetic images, 60 (40) independent trials: at most the binomial bound for α = 1 %."""
+    warnings.simplefilter("ignore", RuntimeWarning)
+    n, alarms = 60 if renders == 1 else 40, 0
+    for t in range(n):
+        rng = np.random.default_rng(run_seed(1600 + renders, t, "check"))
+        user = [_draw(rng) for _ in range(renders)]
+        est = Estimate.from_runs([_draw(rng) for _ in range(4)], run_spp=16)
+        alarms += not check_images(user, est, user_spp=16).consistent
+    assert alarms <= _binom_max(n), f"{alarms} false alarms of {n}"
+
+
+def test_power_synthetic():
+    """Known biases are found, in the right direction and place."""
+    rng = np.random.default_rng(run_seed(1610, 0, "check"))
+    est = Estimate.from_runs([_draw(rng, 64) for _ in range(4)], run_spp=64)
+    x = _draw(rng, 64)
+    assert check_images([x], est, user_spp=64).consistent
+    dark = check_images([0.97 * x], est, user_spp=64)
+    assert not dark.consistent and dark.bias_ci[1] < 0 and dark.bright_blocks == 0
+    wall = x.copy()
+    wall[:, 48:80] *= 0.9
+    r = check_images([wall], est, user_spp=64)
+    assert not r.consistent and r.bright_blocks == 0
+    cols = {f["x"] for f in r.flagged}
+    assert cols and cols <= {48, 64}
+    patch = x.copy()
+    patch[32:48, 64:80] *= 1.15
+    r = check_images([patch], est, user_spp=64)
+    assert not r.consistent and r.dark_blocks == 0 and {(f["x"], f["y"]) for f in r.flagged} == {(64, 32)}
+    assert 0 < r.min_detectable_bias < 0.03 and 0 < r.min_detectable_block_bias < 0.15
+
+
+def _render(integrator: str, seed: int, spp: int = 32) -> np.ndarray:
+    return run_job(RenderJob(CBOX, integrator, spp, seed, (64, 64), 1))[0]
+
+
+@pytest.fixture(scope="module")
+def cbox_trials():
+    """Eight independent trials on the bundled Cornell box (64×64, 32 spp): brdflab's estimate (3 runs of
+    the scene's direct_ems) and one user render each by direct_ems (another seed) and direct_mis."""
+    trials = []
+    for t in range(8):
+        runs = [_render("direct_ems", run_seed(t, k, "reference")) for k in range(3)]
+        trials.append((Estimate.from_runs(runs, run_spp=32), _render("direct_ems", run_seed(t, 0, "check")),
+                       _render("direct_mis", run_seed(t, 1, "check"))))
+    return trials
+
+
+def test_cbox_unbiased_renders_pass(cbox_trials):
+    alarms = sum(not check_images([u], est, user_spp=32).consistent
+                 for est, ems, mis in cbox_trials for u in (ems, mis))
+    assert alarms <= _binom_max(2 * len(cbox_trials)), alarms
+
+
+def test_cbox_biased_renders_flagged(cbox_trials):
+    """Uniformly darker, one wall darker, a bright patch: each flagged in every trial (at this tiny size
+    the biases are larger than the benchmark's 3 % / 10 %: see benchmarks/check_power.py)."""
+    for est, ems, _ in cbox_trials:
+        assert not check_images([0.9 * ems], est, user_spp=32).consistent
+        wall = ems.copy()
+        wall[8:56, 2:14] *= 0.7  # the red wall
+        r = check_images([wall], est, user_spp=32)
+        assert not r.consistent and r.dark_blocks >= 1 and r.bright_blocks == 0
+        patch = ems.copy()
+        patch[32:48, 16:32] *= 1.5
+        r = check_images([patch], est, user_spp=32)
+        assert not r.consistent and r.bright_blocks >= 1 and r.dark_blocks == 0
+
+
+def test_check_cli(tmp_path, cbox_trials, capsys):
+    scene = tmp_path / "cb.xml"
+    scene.write_text(CBOX.read_text().replace('"512"', '"64"').replace("meshes/", str(CBOX.parent / "meshes") + "/"))
+    est, ems, mis = cbox_trials[0]
+    write_exr(tmp_path / "ok.exr", ems, extra={"brdflab_spp": "32"})
+    write_exr(tmp_path / "ok2.exr", mis, extra={"brdflab_spp": "32"})
+    write_exr(tmp_path / "bad.exr", ems * np.where(np.arange(64) < 32, 0.6, 1.0)[:, None, None])
+    assert main(["check", str(tmp_path / "ok.exr"), str(tmp_path / "ok2.exr"), "--scene", str(scene), "--spp",
+                 "32", "--runs", "3", "-o", str(tmp_path / "c1"), "--quiet"]) == 0
+    line = capsys.readouterr().out
+    assert line.startswith("consistent: p = ") and "99 % CI" in line
+    d = json.loads((tmp_path / "c1" / "check.json").read_text())
+    assert d["consistent"] and d["method"] == "welch" and d["user_renders"] == 2 and d["reference_runs"] == 3
+    assert (tmp_path / "c1" / "check.html").stat().st_size > 10_000
+    assert main(["check", str(tmp_path / "bad.exr"), "--scene", str(scene), "--spp", "32", "--runs", "3",
+                 "-o", str(tmp_path / "c2"), "--quiet"]) == 1
+    d = json.loads((tmp_path / "c2" / "check.json").read_text())
+    assert d["method"].startswith("model") and d["dark_blocks"] >= 1 and not d["consistent"]
+    assert all(f["sign"] == "too dark" and f["y"] < 32 for f in d["flagged"])
+    # Usage errors: exit 2, nothing written.
+    write_exr(tmp_path / "small.exr", ems[:32])
+    assert main(["check", str(tmp_path / "small.exr"), "--scene", str(scene), "-o", str(tmp_path / "c3")]) == 2
+    assert main(["check", str(tmp_path / "none.exr"), "--scene", str(scene), "-o", str(tmp_path / "c3")]) == 2
+    assert not (tmp_path / "c3").exists()
+    assert "too small" not in capsys.readouterr().err
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import brdflab.stats.check as mod
+
+    res = doctest.testmod(mod)
+    assert res.attempted >= 3 and res.failed == 0
