@@ -10,12 +10,12 @@ import pytest
 from scipy import stats
 from scipy.ndimage import gaussian_filter
 
+from brdflab.cli.main import main
 from brdflab.imageio import write_exr
 from brdflab.stats import blocks as B
 from brdflab.stats.check import Estimate, check_images
 from brdflab.stats.intervals import holm
 from brdflab.stats.jobs import RenderJob, run_job, run_seed
-from cli.main import main
 from tests.conftest import ROOT
 
 CBOX = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"
