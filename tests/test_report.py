@@ -73,3 +73,5 @@ def test_report_in_browser(report_dir):
     assert result["images"] == result["loaded"] and result["images"] >= 8
     assert result["plots"] >= 4
     assert result["renders"] >= 4 and result["zoomed"] == result["renders"]
+    # A/B flip: every non-reference render of the equal-spp and equal-time rows swaps with the reference and back.
+    assert result["flippable"] >= 6 and result["flipped"] == result["restored"] == result["flippable"]

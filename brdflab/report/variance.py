@@ -306,14 +306,16 @@ def write_report(study: Study, out: Path) -> Path:
     cells = [(out / f"{stem}_{n}_{top}spp.png", f"{LABELS.get(n, n)} — {top} spp, relMSE "
               f"{next(c.relmse for c in study.curve(n) if c.spp == top):.3g}") for n in study.integrators]
     cells.append((out / f"{stem}_reference.png", "reference"))
-    sections.append(html.section(f"Equal samples ({top} spp) — click an image to zoom all", html.image_row(cells)))
+    ref_png = out / f"{stem}_reference.png"
+    sections.append(html.section(f"Equal samples ({top} spp) — click an image to zoom all, A/B (or R) to flip "
+                                 "with the reference", html.image_row(cells, ref=ref_png)))
     eq_cells = []
     for n, c in picks.items():
         img_path = out / f"{stem}_{n}_{c.spp}spp.png"
         if not img_path.exists():
             write_png(img_path, study.pass_images[(n, c.spp)].astype(np.float32))
         eq_cells.append((img_path, f"{LABELS.get(n, n)} — {c.spp} spp in {c.seconds:.2f} s, relMSE {c.relmse:.3g}"))
-    sections.append(html.section(f"Equal time (≈ {budget:.2f} s)", html.image_row(eq_cells)))
+    sections.append(html.section(f"Equal time (≈ {budget:.2f} s)", html.image_row(eq_cells, ref=ref_png)))
     sections.append(html.section("Where each strategy fails: per-pixel relMSE", html.image_row(
         [(p, LABELS.get(n, n)) for n, p in maps.items()], cls="plot")))
     rows = [[c.integrator, c.spp, f"{c.seconds:.3f}", f"{c.relmse:.4g}", f"{c.mse:.4g}", f"{c.mape:.4g}",
