@@ -17,7 +17,7 @@ from brdflab import __version__
 from brdflab.errors import BrdflabError
 
 #: Sub-command modules, in the order they appear in ``--help``. Missing modules are skipped.
-COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench")
+COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot")
 
 
 def build_parser() -> argparse.ArgumentParser:

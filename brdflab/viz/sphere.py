@@ -1,0 +1,98 @@
+"""Lit spheres: a sphere of the material rendered by brdflab's own integrator (``direct_mis``).
+
+Two tiny Nori scenes are written into a temporary folder (a unit sphere seen from +z, 30° field of
+view): one lit by a point light above the camera to the upper left (on black; the plots outline the
+silhouette), one by a small procedural HDR sky
+(blue above, a warm sun, dark ground; lat-long in the course orientation of
+:mod:`brdflab.emitter.environment`). The scene is loaded with a placeholder material, which is then
+replaced by the BSDF object itself, so built-ins with any parameters and users' plugin BSDFs render the
+same way. Renders use the ordinary renderer (:func:`brdflab.render.render`).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.imageio import write_exr
+from brdflab.scene.shapes import uv_sphere, write_obj
+
+#: The lights of :func:`render_spheres`, in display order.
+LIGHTS = ("point light", "environment")
+#: Samples per pixel of each light relative to the requested count (the sky needs more than the point light).
+SPP_FACTOR = {"point light": 1, "environment": 4}
+#: Camera distance and field of view of the scenes.
+DISTANCE, FOV = 4.3, 30.0
+
+
+def silhouette_radius(size: int) -> float:
+    """Radius in pixels of the unit sphere's silhouette in a ``size``² render."""
+    return size / 2 * np.tan(np.arcsin(1.0 / DISTANCE)) / np.tan(np.radians(FOV / 2))
+
+_CAMERA = """<camera type="perspective">
+  <transform name="toWorld"><lookat origin="0, 0, {distance}" target="0, 0, 0" up="0, 1, 0"/></transform>
+  <float name="fov" value="{fov}"/><integer name="width" value="{size}"/><integer name="height" value="{size}"/>
+</camera>"""
+_EMITTERS = {
+    "point light": '<emitter type="pointlight"><point name="position" value="-3, 3.5, 4.5"/>'
+                   '<color name="radiance" value="40, 40, 40"/></emitter>',
+    "environment": '<emitter type="environment"><string name="filename" value="sky.exr"/>'
+                   '<color name="radiance" value="255, 255, 255"/></emitter>',
+}
+
+
+def sky_map(width: int = 64, height: int = 32) -> np.ndarray:
+    """A small procedural HDR sky (H, W, 3): the course lookup reads +Y from the bottom rows."""
+    y, x = np.meshgrid(np.arange(height) + 0.5, np.arange(width) + 0.5, indexing="ij")
+    theta = (1.0 - y / height) * np.pi
+    phi = (1.0 - x / width) * 2 * np.pi
+    d = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], axis=-1)
+    up = d[..., 1:2]
+    sky = np.where(up > 0, np.array([0.25, 0.45, 0.9]) * (0.35 + 0.65 * up) + 0.25 * (1 - up) ** 4,
+                   np.array([0.12, 0.1, 0.08]))
+    sun = np.array([-0.45, 0.65, 0.6])
+    sun /= np.linalg.norm(sun)
+    sky[(d @ sun) > np.cos(np.radians(12.0))] = np.array([12.0, 10.8, 9.0])
+    return sky.astype(np.float32)
+
+
+def write_scenes(folder: Path, size: int = 128, spp: int = 16) -> dict[str, Path]:
+    """Write the sphere, the sky and one scene per light into ``folder``; return light → scene path."""
+    v, f, n, uv = uv_sphere(n_theta=48, n_phi=96)
+    write_obj(folder / "sphere.obj", v, f, n, uv)
+    write_exr(folder / "sky.exr", sky_map(), comments="procedural sky written by brdflab.viz.sphere")
+    out = {}
+    for i, light in enumerate(LIGHTS):
+        path = folder / f"sphere_{i}.xml"
+        path.write_text(
+            "<scene>\n  <integrator type=\"direct_mis\"/>\n"
+            f"  <sampler type=\"independent\"><integer name=\"sampleCount\" value=\"{spp * SPP_FACTOR[light]}\"/>"
+            "</sampler>\n  "
+            + _CAMERA.format(size=size, distance=DISTANCE, fov=FOV)
+            + '\n  <mesh type="obj"><string name="filename" value="sphere.obj"/><bsdf type="diffuse"/></mesh>\n  '
+            + _EMITTERS[light] + "\n</scene>\n")
+        out[light] = path
+    return out
+
+
+def render_spheres(bsdfs: list, size: int = 128, spp: int = 16, seed: int = 0,
+                   workers: int | None = None) -> dict[str, list[np.ndarray]]:
+    """Render a sphere of each BSDF under each light; returns light → [(size, size, 3) float32 per BSDF].
+
+    ``spp`` is the point light's sample count; the environment gets :data:`SPP_FACTOR` times as many.
+    """
+    from brdflab.render import render
+    from brdflab.scene.loader import load_scene
+
+    images: dict[str, list[np.ndarray]] = {light: [] for light in LIGHTS}
+    with tempfile.TemporaryDirectory(prefix="brdflab-sphere-") as tmp:
+        scenes = write_scenes(Path(tmp), size, spp)
+        for light, path in scenes.items():
+            for bsdf in bsdfs:
+                scene = load_scene(path)
+                scene.bsdfs[0] = bsdf
+                img, _ = render(scene, spp=spp * SPP_FACTOR[light], seed=seed, workers=workers)
+                images[light].append(img)
+    return images
