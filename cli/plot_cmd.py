@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from brdflab.errors import BrdflabError
@@ -10,6 +11,7 @@ from brdflab.errors import BrdflabError
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``plot`` sub-command."""
+    from brdflab.cli.options import add_bsdf_options
     from brdflab.viz.static import VIEWS
 
     p = sub.add_parser(
@@ -18,14 +20,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "NAME:KEY=VALUE,KEY=VALUE (a colour keeps its commas: R0=0.95,0.64,0.54); --alpha and --param apply to "
         "every --bsdf that does not set the key itself. Example: brdflab plot --bsdf roughconductor:alpha=0.05 "
         "--bsdf roughconductor:alpha=0.3 --param R0=0.9 --theta 45 -o plots/sweep")
-    p.add_argument("--bsdf", action="append", metavar="NAME[:K=V,...]",
-                   help="material to plot (repeatable; default roughconductor)")
-    p.add_argument("--plugin", action="append", default=[], metavar="FILE",
-                   help="register the BSDF classes of a .py file or package.module:Class (repeatable)")
-    p.add_argument("--alpha", type=float, help="roughness for every --bsdf that does not set alpha")
-    p.add_argument("--param", action="append", default=[], metavar="K=V",
-                   help="parameter for every --bsdf that does not set it (repeatable), e.g. R0=0.9")
-    p.add_argument("--theta", type=float, default=45.0, help="incident angle θ_i in degrees (default 45)")
+    add_bsdf_options(p, repeat=True)
+    p._option_string_actions["--bsdf"].metavar = "NAME[:K=V,...]"
+    p._option_string_actions["--bsdf"].help = (
+        "material to plot (repeatable; default roughconductor): a built-in, a plugin's type_name or "
+        "package.module:Class, optionally with its own parameters after ':'")
+    p._option_string_actions["--alpha"].help = "roughness for every --bsdf with an alpha that does not set it " \
+        "(repeatable: one material per value, an α sweep)"
+    p._option_string_actions["--theta"].help = "incident angle θ_i in degrees (default 45)"
     p.add_argument("--phi-d", type=float, default=90.0, help="φ_d of the θh×θd slice in degrees (default 90)")
     p.add_argument("--cos", action="store_true", help="polar plot of f·cos θ_o instead of f")
     p.add_argument("--views", default=",".join(VIEWS), help=f"comma-separated subset of {','.join(VIEWS)}")
@@ -39,16 +41,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build the BSDFs and write the views."""
+    from brdflab.cli.options import load_plugins
     from brdflab.viz import spec as bspec
-    from brdflab.viz.registry import load_plugin
     from brdflab.viz.static import VIEWS, PlotOptions, write_plots
 
-    for plugin in args.plugin:
-        load_plugin(plugin)
-    if not 0 <= args.theta < 90:
-        raise BrdflabError(f"--theta must be in [0, 90) degrees, got {args.theta:g}")
-    if args.alpha is not None and not args.alpha > 0:
-        raise BrdflabError(f"--alpha must be > 0, got {args.alpha:g}")
+    load_plugins(args)
+    thetas = args.theta or [45.0]
+    if len(thetas) > 1:
+        raise BrdflabError("plot takes one --theta")
+    theta = thetas[0]
+    if not (math.isfinite(theta) and 0 <= theta < 90):
+        raise BrdflabError(f"--theta must be in [0, 90) degrees, got {theta:g}")
+    for a in args.alpha or []:
+        if not (math.isfinite(a) and a > 0):
+            raise BrdflabError(f"--alpha must be > 0, got {a:g}")
     chosen = tuple(v.strip() for v in args.views.split(",") if v.strip())
     bad = [v for v in chosen if v not in VIEWS]
     if bad or not chosen:
@@ -60,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     bsdfs = [bspec.build(s) for s in specs]
     labels = [s.label for s in specs]
     out = args.output or Path("plots") / specs[0].name
-    opts = PlotOptions(theta=args.theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
+    opts = PlotOptions(theta=theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
                        sphere_size=args.size, sphere_spp=args.spp, workers=args.workers)
     path = write_plots(bsdfs, labels, out, opts, progress=lambda m: print("  " + m))
     print(f"wrote {', '.join(chosen)} for {len(bsdfs)} BSDF(s): {path}")

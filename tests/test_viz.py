@@ -92,7 +92,7 @@ def test_polar_csv_matches_eval(plot_dir):
     t = np.radians(data[:, 0])
     wo = np.stack([-np.sin(t), np.zeros_like(t), np.cos(t)], axis=1)  # φ_i = 0: ω_i in the +x half of x–z
     wi = np.tile([np.sin(np.radians(45.0)), 0.0, np.cos(np.radians(45.0))], (len(t), 1))
-    f = RoughConductor(0.9, 0.1).eval(wi, wo)
+    f = RoughConductor(R0=0.9, alpha=0.1).eval(wi, wo)
     np.testing.assert_allclose(data[:, 2], f[:, 0], rtol=1e-8, atol=1e-12)
     assert data[np.argmax(data[:, 2]), 0] == pytest.approx(45.0, abs=3.0)  # peak near the mirror direction
     assert np.all(data[data[:, 0] < 0, 2] < data[:, 2].max() * 1e-3)  # back-scattering side is dark
@@ -116,3 +116,76 @@ def test_plot_bad_bsdf_spec_is_a_clean_error(tmp_path, capsys):
     assert "--bsdf" in capsys.readouterr().err
     assert main(["plot", "--bsdf", "nosuchbsdf", "-o", str(out)]) == 2
     assert not out.exists()
+
+
+PLUGIN = '''
+import numpy as np
+import brdflab as bl
+
+
+class TinyPhong(bl.BSDF):
+    """Normalised Phong lobe about the mirror direction, sampled cosine-weighted (test plugin)."""
+
+    type_name = "tinyphong_viz"
+
+    def __init__(self, ks=0.8, exponent=30.0):
+        self.ks, self.exponent = float(ks), float(exponent)
+
+    def eval(self, wi, wo, uv=None):
+        mirror = wi * np.array([-1.0, -1.0, 1.0])
+        c = np.clip(np.sum(mirror * wo, axis=1), 0.0, 1.0)
+        up = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        f = self.ks * (self.exponent + 2) / (2 * np.pi) * c**self.exponent * up
+        return np.repeat(f[:, None], 3, axis=1)
+
+    def pdf(self, wi, wo, uv=None):
+        return np.where((wi[:, 2] > 0) & (wo[:, 2] > 0), wo[:, 2] / np.pi, 0.0)
+
+    def sample(self, wi, u, uv=None):
+        wo = bl.warps.square_to_cosine_hemisphere(u[:, :2])
+        pdf = self.pdf(wi, wo)
+        w = self.eval(wi, wo) * np.where(pdf > 0, wo[:, 2] / np.maximum(pdf, 1e-300), 0.0)[:, None]
+        return bl.BSDFSample(wo, w, pdf)
+'''
+
+
+def test_plot_overlays_builtins_and_a_plugin(tmp_path):
+    from brdflab.plugins import unregister_bsdf
+
+    plugin = tmp_path / "tinyphong.py"
+    plugin.write_text(PLUGIN)
+    out = tmp_path / "overlay"
+    try:
+        assert main(["plot", "--plugin", str(plugin), "--bsdf", "roughconductor", "--bsdf", "roughsubstrate:kd=0.3",
+                     "--bsdf", "tinyphong_viz:exponent=50", "--alpha", "0.2", "--param", "R0=0.9", "--theta", "30",
+                     "--views", "polar,albedo,sphere", "--size", "24", "--spp", "1", "--samples", "4000",
+                     "--workers", "1", "-o", str(out)]) == 0
+        header, data = _read_csv(out / "polar.csv")
+        assert header[2:] == ["roughconductor alpha=0.2 R0=0.9", "roughsubstrate alpha=0.2 kd=0.3",
+                              "tinyphong_viz exponent=50"]
+        from brdflab.plugins import make_bsdf
+
+        t = np.radians(data[:, 0])
+        wo = np.stack([-np.sin(t), np.zeros_like(t), np.cos(t)], axis=1)
+        wi = np.tile(coords.incident(30.0), (len(t), 1))
+        for col, bsdf in zip((2, 3, 4), (RoughConductor(R0=0.9, alpha=0.2),
+                                         make_bsdf("roughsubstrate", {"kd": 0.3}, alpha=0.2),
+                                         make_bsdf("tinyphong_viz", {"exponent": "50"})), strict=True):
+            np.testing.assert_allclose(data[:, col], bsdf.eval(wi, wo)[:, 1], rtol=1e-8, atol=1e-12)
+        _, alb = _read_csv(out / "albedo.csv")
+        phong_q, phong_mc, phong_se = alb[:, 7], alb[:, 8], alb[:, 9]
+        assert np.all(np.abs(phong_q - phong_mc) <= 5 * phong_se + 1e-3)
+        assert (out / "sphere_2_1.exr").exists() and "tinyphong_viz" in (out / "index.html").read_text()
+    finally:
+        unregister_bsdf("tinyphong_viz")
+
+
+def test_bsdf_spec_syntax():
+    from brdflab.viz.spec import resolve
+
+    specs = resolve(["roughconductor:R0=0.95,0.64,0.54,alpha=0.3", "roughconductor", "diffuse"], [0.05, 0.5],
+                    ["R0=0.9"])
+    assert [(s.name, s.params, s.alpha) for s in specs] == [
+        ("roughconductor", {"R0": "0.95,0.64,0.54", "alpha": "0.3"}, None),
+        ("roughconductor", {"R0": "0.9"}, 0.05), ("roughconductor", {"R0": "0.9"}, 0.5), ("diffuse", {}, None)]
+    assert specs[1].label == "roughconductor alpha=0.05 R0=0.9"

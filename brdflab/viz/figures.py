@@ -111,7 +111,7 @@ def lobe_figure(lobe: Lobe, labels: list[str], theta_i: float, phi_i: float = 0.
             import matplotlib
 
             shade = matplotlib.colormaps["viridis"](r[k] / rmax)
-            ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=shade, rstride=1, cstride=1,
+            ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=shade, rstride=1, cstride=2,
                             linewidth=0.2, edgecolor=(0, 0, 0, 0.15), shade=False)
         else:
             ax.plot_wireframe(xyz[..., 0], xyz[..., 1], xyz[..., 2], color=cols[k], lw=0.8, rstride=3, cstride=4,
