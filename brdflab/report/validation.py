@@ -1,36 +1,23 @@
 """HTML report of a validation battery: chi-square histograms and verdicts, albedo curves, stability.
 
-Same look as the variance reports (:mod:`brdflab.report.page`); written to ``<dir>/index.html`` with the
-figures embedded, so the file opens from the file system.
+Same look as the variance reports (template ``templates/validation.html.j2`` on the shared base layout);
+written to ``<dir>/index.html`` with the figures embedded, so the file opens from the file system.
+Chi-square tests are shown as thumbnails of their own bins (observed | expected | residual) and, for
+failures, the negative controls and one representative per sampler, as detailed (φ′, cos θ′) views with
+residual maps (:mod:`brdflab.report.chi2_views`). A rejected negative control is shown as what must happen
+("rejected, as it must be"), not as a pass.
 """
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
 
-from brdflab.report import page as html
+from brdflab.report import chi2_views as cv
+from brdflab.validate import chi2 as c2
 from brdflab.validate.battery import Battery, _fmt
 from brdflab.validate.stability import NOTES
-
-
-def _histogram_png(obs: np.ndarray, exp: np.ndarray, scale: int = 4) -> bytes:
-    """Observed | expected histograms side by side (θ′ rows × φ′ columns), shared colour scale."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.image
-
-    vmax = max(float(obs.max()), float(exp.max()), 1.0)
-    gap = np.full((obs.shape[0], 2), np.nan)
-    img = np.concatenate([obs, gap, exp], axis=1) / vmax
-    img = np.kron(img, np.ones((scale, scale)))
-    buf = io.BytesIO()
-    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="white")
-    matplotlib.image.imsave(buf, np.ma.masked_invalid(img), cmap=cmap, vmin=0, vmax=1, format="png")
-    return buf.getvalue()
 
 
 def _png_uri(data: bytes) -> str:
@@ -67,49 +54,79 @@ def _albedo_plot(bat: Battery, path: Path) -> None:
     plt.close(fig)
 
 
-def _verdict(ok: bool) -> str:
-    return '<span class="pass">pass</span>' if ok else '<span class="fail">FAIL</span>'
+def _verdict(ok: bool) -> tuple[str, str]:
+    return ("pass", "pass") if ok else ("fail", "FAIL")
 
 
-def write_validation_report(bat: Battery, out: Path, title: str = "brdflab validation") -> Path:
-    """Write the report into ``out`` (``index.html`` plus ``albedo.png``); return the HTML path."""
+#: At most this many tests get a detailed (φ′, cos θ′) view (failures first, then the negative controls,
+#: then the passing test with the lowest p-value of each sampler).
+MAX_DETAILS = 16
+
+
+def select_details(bat: Battery) -> list[tuple[c2.Chi2Result, bool]]:
+    """(result, is negative control) of the tests shown in detail (see :data:`MAX_DETAILS`)."""
+    chosen: list[tuple[c2.Chi2Result, bool]] = [(r, False) for r in bat.chi2 if not r.passed]
+    chosen += [(r, True) for r in bat.negative_control]
+    if len(bat.chi2) <= 6:
+        chosen += [(r, False) for r in bat.chi2 if r.passed]
+    else:
+        for name in dict.fromkeys(r.name for r in bat.chi2):
+            ok = [r for r in bat.chi2 if r.name == name and r.passed]
+            if ok:
+                chosen.append((min(ok, key=lambda r: r.p_value), False))
+    return chosen[:MAX_DETAILS]
+
+
+def write_validation_report(bat: Battery, out: Path, title: str = "brdflab validation",
+                            view_samples: int | None = None) -> Path:
+    """Write the report into ``out`` (``index.html`` plus figures); return the HTML path.
+
+    ``view_samples``: samples drawn for each detailed (φ′, cos θ′) view (:mod:`brdflab.report.chi2_views`);
+    by default as many as the test itself counted, between 20 000 and 200 000.
+    """
+    from brdflab.report.jinja import render
+    from brdflab.viz.figures import save
+
     out.mkdir(parents=True, exist_ok=True)
-    sections = []
-    n_fail = len(bat.failures())
+    failures = bat.failures()
     summary = (f"{len(bat.chi2)} chi-square tests at family-wise significance 0.01 (Šidák: per-test threshold "
                f"{bat.threshold:.3g}); minimum p-value "
-               f"{min((r.p_value for r in bat.chi2), default=float('nan')):.3g}. ")
-    if bat.negative_control:
-        summary += ("Negative control (conductor pdf without the 1/(4|ω_o·ω_h|) Jacobian): "
-                    + ", ".join(f"p = {r.p_value:.2g}" for r in bat.negative_control)
-                    + (" — rejected, so the test has power. " if all(not r.passed for r in bat.negative_control)
-                       else " — NOT rejected: the harness is broken. "))
-    summary += "Overall: " + ("everything passed." if n_fail == 0 else f"{n_fail} failures.")
-    body = html.esc_p(summary)
-    if n_fail:
-        body += "<ul>" + "".join(f"<li class='fail'>{html.esc(f)}</li>" for f in bat.failures()) + "</ul>"
-    sections.append(html.section("Summary", body))
+               f"{min((r.p_value for r in bat.chi2), default=float('nan')):.3g}.")
+    negative = []
+    for r in bat.negative_control:
+        cls, text = cv.verdict(r, True)
+        negative.append({"theta": f"{r.params.get('theta', float('nan')):g}°", "p": f"{r.p_value:.2g}", "cls": cls,
+                         "text": text})
+
+    details, anchors = [], {}
+    for k, (r, neg) in enumerate(select_details(bat)):
+        n_view = view_samples or int(np.clip(np.sum(r.observed) if r.observed is not None else 0, 20_000, 200_000))
+        view = cv.view_of(r, n_view, seed=_seed_of(r, k))
+        if view is None:
+            continue
+        anchor = f"view-{k}"
+        anchors[id(r)] = anchor
+        save(cv.figure(r, view, neg), out / f"chi2_view_{k}", dpi=80, formats=("png",))
+        cls, text = cv.verdict(r, neg)
+        details.append({"png": out / f"chi2_view_{k}.png", "anchor": anchor, "cls": cls, "text": text,
+                        "title": f"{r.name} {_fmt(r.params)}: p = {r.p_value:.3g}, {view.shown:.1%} of "
+                                 f"{n_view} fresh samples inside the plotted range"})
 
     rows = []
     for r in bat.chi2 + bat.negative_control:
         neg = r in bat.negative_control
-        img = f'<img src="{_png_uri(_histogram_png(r.observed, r.expected))}" alt="histograms" style="max-width:360px">'
-        verdict = (_verdict(not r.passed) + " (must be rejected)") if neg else _verdict(r.passed)
-        rows.append([html.esc(r.name + (" [negative control]" if neg else "")), html.esc(_fmt(r.params)),
-                     f"{r.statistic:.1f}", r.dof, f"{r.p_value:.4g}", f"{r.integral:.4f}", verdict, img])
-    sections.append(html.section(
-        "Chi-square goodness of fit (observed | expected, rows θ′ from the lobe axis, columns φ′)",
-        html.table(["sampler", "parameters", "X²", "dof", "p-value", "∫ p dω", "verdict", "histograms"], rows,
-                   raw=True)))
+        cls, text = cv.verdict(r, neg)
+        rows.append({"name": r.name + (" [negative control]" if neg else ""), "params": _fmt(r.params),
+                     "stat": f"{r.statistic:.1f}", "dof": r.dof, "p": f"{r.p_value:.4g}",
+                     "integral": f"{r.integral:.4f}",
+                     "cls": cls, "text": text, "detail": anchors.get(id(r)),
+                     "thumb": _png_uri(cv.thumbnail_png(r)) if r.observed is not None else ""})
 
-    if bat.consistency:
-        rows = [[html.esc(r.name), f"{r.theta:g}", f"{r.max_weight_error:.1e}", f"{r.pdf_integral:.5f}",
-                 f"{r.valid_fraction:.5f}", f"{r.max_reciprocity_error:.1e}", r.negative_or_nonfinite,
-                 _verdict(r.passed)] for r in bat.consistency]
-        sections.append(html.section("Consistency: weight = eval·cos/pdf, ∫ pdf ≤ 1, reciprocity", html.table(
-            ["BSDF", "θ_i", "max rel. weight error", "∫ p dω", "valid samples", "max reciprocity error",
-             "negative/non-finite", "verdict"], rows, raw=True)))
+    consistency = [{"cells": [r.name, f"{r.theta:g}", f"{r.max_weight_error:.1e}", f"{r.pdf_integral:.5f}",
+                              f"{r.valid_fraction:.5f}", f"{r.max_reciprocity_error:.1e}", r.negative_or_nonfinite],
+                    **dict(zip(("cls", "text"), _verdict(r.passed), strict=True))} for r in bat.consistency]
 
+    albedo = None
     if bat.albedo:
         _albedo_plot(bat, out / "albedo.png")
         loss = []
@@ -120,23 +137,37 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                 if p:
                     loss.append(f"{name}, α = {p.alpha:g}, θ_i = {th:g}°: ρ = {p.quadrature:.3f} "
                                 f"(energy lost by single scattering: {100 * (1 - p.quadrature):.1f} %)")
-        body = html.image_row([(out / "albedo.png", "directional albedo by quadrature (lines) and Monte Carlo "
-                                                      "(dots, ±2σ)")], cls="plot")
-        body += "<ul>" + "".join(f"<li>{html.esc(x)}</li>" for x in loss) + "</ul>"
-        body += html.esc_p(f"All {len(bat.albedo)} points: ρ ≤ 1 and quadrature = Monte Carlo within 4σ: "
-                           + ("yes." if all(p.passed for p in bat.albedo) else "NO."))
-        sections.append(html.section("White furnace and energy conservation", body))
+        albedo = {"png": out / "albedo.png", "loss": loss,
+                  "verdict": f"All {len(bat.albedo)} points: ρ ≤ 1 and quadrature = Monte Carlo within 4σ: "
+                             + ("yes." if all(p.passed for p in bat.albedo) else "NO.")}
 
+    stab = None
     if bat.stability:
         bad = [r for r in bat.stability if not r.passed]
-        rows = [[html.esc(r.material), html.esc(r.case), r.n, r.nan, r.inf, r.negative, _verdict(r.passed)]
-                for r in bat.stability]
-        body = html.esc_p(f"{len(bat.stability)} extreme cases, {len(bad)} with NaN, infinity or negative values.")
-        body += "<ul>" + "".join(f"<li>{html.esc(n)}</li>" for n in NOTES) + "</ul>"
-        body += "<details><summary>all cases</summary>" + html.table(
-            ["material", "case", "values", "NaN", "inf", "negative", "verdict"], rows, raw=True) + "</details>"
-        sections.append(html.section("Stiff and extreme cases", body))
+        stab = {"summary": f"{len(bat.stability)} extreme cases, {len(bad)} with NaN, infinity or negative values.",
+                "notes": NOTES,
+                "rows": [{"cells": [r.material, r.case, r.n, r.nan, r.inf, r.negative],
+                          **dict(zip(("cls", "text"), _verdict(r.passed), strict=True))} for r in bat.stability]}
 
+    page = render("validation.html.j2", title=title, summary=summary, negative=negative,
+                  negative_what="the conductor's pdf without the 1/(4|ω_o·ω_h|) Jacobian, which the test must reject",
+                  failures=failures, details=details, views_note=VIEWS_NOTE, rows=rows, consistency=consistency,
+                  albedo=albedo, stability=stab)
     path = out / "index.html"
-    path.write_text(html.page(title, "".join(sections)))
+    path.write_text(page)
     return path
+
+
+VIEWS_NOTE = (
+    "Each figure: top, the test's own bins (θ′ at quantiles of a pilot sample, so every θ′ row holds about the "
+    "same number of samples by construction) and the sampled directions; bottom, a fresh sample binned uniformly "
+    "in (φ′, cos θ′) about the test axis (equal solid angle per bin), observed | expected on a shared colour bar, "
+    "and the residual (O − E)/√E: where a sampler disagrees with its pdf, the residual map is red (sampled too "
+    "often) or blue (too rarely) far beyond ±3. Shown: failures, the negative controls and the passing test with "
+    "the lowest p-value of each sampler.")
+
+
+def _seed_of(r: c2.Chi2Result, k: int) -> int:
+    import zlib
+
+    return zlib.crc32(repr(("view", r.name, sorted((str(a), repr(b)) for a, b in (r.params or {}).items()))).encode())

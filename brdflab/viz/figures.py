@@ -29,10 +29,10 @@ def colours(k: int) -> list:
     return [cmap(i % 10) for i in range(k)]
 
 
-def save(fig, base: Path, dpi: int = 100) -> list[Path]:
-    """Write ``base``.png and ``base``.svg and close the figure; return the two paths."""
+def save(fig, base: Path, dpi: int = 100, formats: tuple[str, ...] = ("png", "svg")) -> list[Path]:
+    """Write ``base``.png and ``base``.svg (or the given ``formats``) and close the figure; return the paths."""
     paths = []
-    for ext in ("png", "svg"):
+    for ext in formats:
         p = base.with_suffix("." + ext)
         fig.savefig(p, dpi=dpi, metadata={"Date": None} if ext == "svg" else None)
         paths.append(p)
