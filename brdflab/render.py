@@ -108,6 +108,8 @@ class RenderStats:
     dropped: int = 0
     workers: int = 1
     checkpoints: list[tuple[int, float]] = field(default_factory=list)
+    per_worker: dict = field(default_factory=dict)
+    """On a cluster: worker address → :class:`brdflab.cluster.WorkerStats`."""
 
     @property
     def samples_per_second(self) -> float:
@@ -278,6 +280,21 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
             _FORK_SCENE = _FORK_SLOTS = None
 
 
+class ForkPool:
+    """The built-in executor: forked worker processes on this machine (threads off Linux; in-process for
+    one worker). :class:`brdflab.cluster.Cluster` implements the same interface on a Dask cluster."""
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = workers or os.cpu_count() or 1
+
+    def results(self, scene, units: list[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
+        """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``."""
+        return _results(scene, units, seed, self.workers, halt)
+
+    def finish(self, image: np.ndarray, stats: RenderStats) -> None:
+        """Called with the image and stats when the render ends (nothing to do here)."""
+
+
 def render(
     scene,
     spp: int | None = None,
@@ -289,6 +306,7 @@ def render(
     time_limit: float | None = None,
     checkpoints: tuple[int, ...] = (),
     progressive: bool | None = None,
+    cluster=None,
 ) -> tuple[np.ndarray, RenderStats]:
     """Render ``scene``.
 
@@ -316,6 +334,10 @@ def render(
         ``on_pass``, ``checkpoints`` or ``time_limit`` ask for intermediate images; otherwise passes of
         :data:`BATCH_PASS` samples per pixel. The pass sizes are part of the random-number layout: an image is
         reproducible for the same scene, seed, sample count and schedule.
+    cluster
+        Run the units on a Dask cluster instead of local workers: an address (``"tcp://host:8786"``,
+        ``"local:4"``) or a :class:`brdflab.cluster.Cluster`. The image is bit-identical to a local render.
+        A lost scheduler raises :class:`brdflab.cluster.ClusterError` carrying the completed passes.
 
     Returns
     -------
@@ -326,7 +348,8 @@ def render(
     tune_allocator()
     spp = scene.spp if spp is None else spp
     seed = scene.seed if seed is None else seed
-    workers = workers or os.cpu_count() or 1
+    executor = ForkPool(workers) if cluster is None else _cluster_executor(cluster)
+    workers = executor.workers
     cam = scene.camera
     film = Film(cam.width, cam.height, scene.filter)
     units = []
@@ -350,7 +373,7 @@ def render(
     halt = threading.Event()
     worker_rays, worker_seconds = 0, 0.0
     pass_film = Film(cam.width, cam.height, scene.filter)
-    results = _results(scene, units, seed, workers, halt)
+    results = executor.results(scene, units, seed, halt)
     for i, (tile_film, n, dropped, rays, secs) in enumerate(results):
         if stop is not None and stop.is_set():
             halt.set()  # keep only the completed passes; running units finish and are discarded
@@ -384,7 +407,16 @@ def render(
     stats.seconds = time.perf_counter() - t0
     stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
     stats.samples = done_spp * cam.width * cam.height
-    return film.image(), stats
+    image = film.image()
+    executor.finish(image, stats)
+    return image, stats
+
+
+def _cluster_executor(cluster):
+    """A :class:`brdflab.cluster.Cluster` for an address (closed when the render ends) or as given."""
+    from brdflab.cluster import Cluster
+
+    return cluster if isinstance(cluster, Cluster) else Cluster(cluster, close_after_render=True)
 
 
 class _CallableModule(types.ModuleType):

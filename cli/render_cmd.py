@@ -10,6 +10,7 @@ import time
 import warnings
 from pathlib import Path
 
+from brdflab.cli.cluster_options import add_cluster_options, cluster_from_args
 from brdflab.errors import BrdflabError
 
 from .options import add_plugin_option, load_plugins
@@ -35,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="render as many full passes as fit in this time")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     add_plugin_option(p)
+    add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)
 
 
@@ -84,6 +86,7 @@ def output_paths(scene_path: Path, output: Path | None, figures: Path | None, sp
 
 def run(args: argparse.Namespace) -> int:
     """Load, render and write the images."""
+    from brdflab.cluster import ClusterError
     from brdflab.imageio import write_images
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
@@ -122,16 +125,25 @@ def run(args: argparse.Namespace) -> int:
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, on_sigint)
+    failure = None
     try:
-        image, stats = render(scene, spp=spp, seed=args.seed, workers=args.workers,
-                              progress=Progress("rendering", quiet=args.quiet), stop=stop,
-                              time_limit=args.time_limit)
+        with cluster_from_args(args, quiet=args.quiet) as cluster:
+            try:
+                image, stats = render(scene, spp=spp, seed=args.seed, workers=args.workers,
+                                      progress=Progress("rendering", quiet=args.quiet), stop=stop,
+                                      time_limit=args.time_limit, cluster=cluster)
+            except ClusterError as exc:
+                if exc.image is None:
+                    raise ClusterError(f"{exc}; no pass had completed, no image written") from None
+                image, stats, failure = exc.image, exc.stats, exc
+            if cluster is not None and not args.quiet:
+                per_worker = cluster.summary()
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, previous)
     if stats.spp == 0:
         raise BrdflabError("stopped before the first pass finished; no image written")
-    interrupted = stop.is_set() and stats.spp < spp
+    interrupted = (stop.is_set() or failure is not None) and stats.spp < spp
     exr, png = output_paths(args.scene, args.output, args.figures, stats.spp)
     if interrupted and args.figures is None:
         exr = exr.with_name(f"{exr.stem}_partial_{stats.spp}spp.exr")
@@ -139,8 +151,13 @@ def run(args: argparse.Namespace) -> int:
     write_s = write_images(exr, png, image, extra={"brdflab_spp": str(stats.spp),
                                                    "brdflab_integrator": scene.integrator_type,
                                                    "brdflab_seconds": f"{stats.seconds:.3f}"})
+    if failure is not None:
+        print(f"brdflab: error: {failure}; wrote the {stats.spp} completed spp to {exr}", file=sys.stderr)
+        return 1
     if not args.quiet:
         print(stats.summary(), file=sys.stderr)
+        if cluster is not None:
+            print("\n".join(per_worker), file=sys.stderr)
         print("  " + fixed_costs_line(startup_s, scene.timings, write_s, process_seconds()), file=sys.stderr)
         print(f"wrote {exr} and {png}", file=sys.stderr)
     return 130 if interrupted else 0

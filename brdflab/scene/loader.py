@@ -9,6 +9,7 @@ the working directory, then as given.
 
 from __future__ import annotations
 
+import hashlib
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -63,6 +64,8 @@ class Scene:
     timings: dict[str, float] = field(default_factory=dict)
     """Seconds spent loading: ``"obj"`` (parsing the meshes), ``"geometry"`` (triangle tables and BVH),
     ``"bvh"`` (the Embree build alone) and ``"total"`` (the whole :func:`load_scene`)."""
+    source_digest: str = ""
+    """SHA-256 of the scene file as loaded (cluster workers loading the file themselves must match it)."""
 
     def set_emitter_selection(self, mode: str = "uniform") -> None:
         """Choose emitters uniformly (Nori's rule, default) or proportionally to their power."""
@@ -295,6 +298,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
     scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
     scene.set_emitter_selection(emitter_selection or "uniform")
+    scene.source_digest = hashlib.sha256(path.read_bytes()).hexdigest()
     if not emitters and getattr(integrator, "needs_emitters", False):
         warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
     scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
