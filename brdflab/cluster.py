@@ -531,31 +531,33 @@ class Cluster:
         return lines
 
     # -- studies and sweeps
-    def map(self, fn: Callable, jobs: Iterable, progress: Callable[[int, int], None] | None = None) -> list:
-        """``[fn(job) for job in jobs]`` on the cluster, in job order (``fn`` must be importable)."""
-        jobs = list(jobs)
+    def imap(self, fn: Callable, jobs: Iterable) -> Iterator:
+        """Yield ``fn(job)`` for every job, in job order, computed on the cluster (``fn`` must be
+        importable by the workers: a module-level function). Closing the iterator cancels the rest."""
+        from distributed.client import FutureCancelledError
+
         tag = uuid.uuid4().hex[:8]
         futures = [self.client.submit(fn, job, key=f"brdflab-job-{tag}-{i}", pure=False) for i, job in enumerate(jobs)]
-        out = []
+        done = 0
         try:
-            for i, fut in enumerate(futures):
+            for fut in futures:
                 try:
-                    out.append(fut.result())
-                except Exception as exc:
-                    from distributed.client import FutureCancelledError
-
-                    if isinstance(exc, FutureCancelledError | OSError | TimeoutError):
-                        raise ClusterError(self._lost_message(exc)) from None
-                    raise
+                    result = fut.result()
+                except (FutureCancelledError, OSError, TimeoutError) as exc:
+                    raise ClusterError(self._lost_message(exc)) from None
                 fut.release()
-                if progress is not None:
-                    progress(i + 1, len(jobs))
+                done += 1
+                yield result
         finally:
-            try:
-                self.client.cancel(futures[len(out):], force=True)
-            except Exception:  # noqa: BLE001 - nothing to cancel on a lost scheduler
-                pass
-        return out
+            if done < len(futures):
+                try:
+                    self.client.cancel(futures[done:], force=True)
+                except Exception:  # noqa: BLE001 - nothing to cancel on a lost scheduler
+                    pass
+
+    def map(self, fn: Callable, jobs: Iterable) -> list:
+        """``[fn(job) for job in jobs]`` on the cluster, in job order."""
+        return list(self.imap(fn, jobs))
 
 
 def _shutdown(client, local) -> None:
@@ -575,12 +577,27 @@ def open_cluster(cluster) -> tuple[Cluster | None, bool]:
     return Cluster(cluster), True
 
 
-def map_jobs(fn: Callable, jobs: Iterable, cluster=None, progress: Callable[[int, int], None] | None = None) -> list:
-    """``[fn(job) for job in jobs]`` in job order: on ``cluster`` (an address or a :class:`Cluster`) when
+def iter_jobs(fn: Callable, jobs: Iterable, cluster=None) -> Iterator:
+    """Yield ``fn(job)`` for every job in job order: on ``cluster`` (an address or a :class:`Cluster`) when
     given, else in this process.
 
     ``fn`` must be a module-level function and each job a picklable descriptor carrying its own seed, so
     the results do not depend on where or in which order the jobs run.
+    """
+    cl, owned = open_cluster(cluster)
+    if cl is None:
+        for job in jobs:
+            yield fn(job)
+        return
+    try:
+        yield from cl.imap(fn, jobs)
+    finally:
+        if owned:
+            cl.close()
+
+
+def map_jobs(fn: Callable, jobs: Iterable, cluster=None) -> list:
+    """``[fn(job) for job in jobs]`` in job order, on ``cluster`` when given (see :func:`iter_jobs`).
 
     Examples
     --------
@@ -588,16 +605,4 @@ def map_jobs(fn: Callable, jobs: Iterable, cluster=None, progress: Callable[[int
     >>> map_jobs(abs, [-1, 2, -3])
     [1, 2, 3]
     """
-    cl, owned = open_cluster(cluster)
-    if cl is None:
-        out = []
-        for i, job in enumerate(jobs):
-            out.append(fn(job))
-            if progress is not None:
-                progress(i + 1, -1)
-        return out
-    try:
-        return cl.map(fn, jobs, progress)
-    finally:
-        if owned:
-            cl.close()
+    return list(iter_jobs(fn, jobs, cluster))

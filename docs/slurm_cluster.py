@@ -24,8 +24,10 @@ def make_cluster(queue: str | None = None, account: str | None = None, host: str
     """A ``dask_jobqueue.SLURMCluster`` for brdflab workers (no job is submitted until ``scale``)."""
     from dask_jobqueue import SLURMCluster
 
-    options = dict(JOB, queue=queue, account=account, python=sys.executable,
-                   scheduler_options={"dashboard_address": dashboard_address, **({"host": host} if host else {})})
+    scheduler = {"dashboard_address": dashboard_address} if dashboard_address else {"dashboard": False}
+    if host:
+        scheduler["host"] = host
+    options = dict(JOB, queue=queue, account=account, python=sys.executable, scheduler_options=scheduler)
     options.update(overrides)
     return SLURMCluster(**options)
 
