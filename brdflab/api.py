@@ -57,7 +57,7 @@ def load_scene(path: str | Path, *, integrator: str | None = None, spp: int | No
 
 
 def render(scene, spp: int | None = None, seed: int | None = None, workers: int | None = None, *,
-           return_stats: bool = False):
+           return_stats: bool = False, cluster=None):
     """Render a loaded scene and return its image.
 
     Parameters
@@ -71,6 +71,9 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
         Worker processes (default: all cores; 1 renders in this process).
     return_stats
         Also return the :class:`brdflab.render.RenderStats` (time, samples/s, rays/s, Embree share).
+    cluster
+        Render on a Dask cluster instead: ``"tcp://host:8786"``, ``"local:4"`` or a
+        :class:`brdflab.cluster.Cluster` (same image, see :mod:`brdflab.cluster`).
 
     Returns
     -------
@@ -90,6 +93,6 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     """
     from brdflab.render import render as _render
 
-    image, stats = _render(scene, spp=spp, seed=seed, workers=workers)
+    image, stats = _render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster)
     image = np.asarray(image, dtype=np.float32)
     return (image, stats) if return_stats else image

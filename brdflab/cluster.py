@@ -30,10 +30,12 @@ The scene reaches the workers in one of two ways (``scene_transfer``):
     The loaded scene object is pickled once (its Embree BVH left out; its triangle tables rebuilt from
     the meshes on the worker), scattered once to every worker, and rebuilt once per worker process,
     cached by the SHA-256 of its bytes. Works for any scene — loaded with overrides, with plugin
-    materials, or built in memory — and needs no shared file system.
+    materials (classes from plugin files travel by value), or changed in memory — and needs no shared
+    file system.
 ``"path"``
     Each worker loads the scene file itself (same absolute path: a shared file system), with the
-    client's integrator and emitter selection; the worker checks that its XML file and geometry hash
+    client's integrator, image size and emitter selection (built-in materials, or plugins importable on
+    the workers); the worker checks that its XML file and geometry hash
     to the client's, so a stale copy fails loudly instead of rendering a different image. Nothing but
     the path travels: for very large meshes on a cluster with a shared file system. (Image and texture
     files are not compared, and changes made to the scene in memory do not reach the workers.)
@@ -181,10 +183,16 @@ def _attach_embree(g) -> None:
 def scene_bytes(scene) -> bytes:
     """The scene pickled for shipping: no Embree handles or ray counters; the triangle tables are
     rebuilt from the meshes on the worker when the geometry is exactly their concatenation."""
+    import sys
+
     import cloudpickle
 
     from brdflab.scene.geometry import Geometry, RayStats
 
+    # Plugins loaded from a .py file live in a module no worker can import: ship their classes by value.
+    for name, module in list(sys.modules.items()):
+        if name.startswith("brdflab_plugin_") and module is not None:
+            cloudpickle.register_pickle_by_value(module)
     meshes = [m.mesh for m in getattr(scene, "meshes", [])]
 
     class Pickler(cloudpickle.Pickler):
@@ -206,9 +214,9 @@ def scene_bytes(scene) -> bytes:
 
 
 def _path_fingerprint(scene) -> str:
-    """What a worker must match in ``path`` mode: the scene file as loaded and the triangle geometry
-    (image and texture files are not compared)."""
-    h = hashlib.sha256(scene.source_digest.encode())
+    """What a worker must match in ``path`` mode: the scene file as loaded, the image size and the triangle
+    geometry (image and texture files are not compared)."""
+    h = hashlib.sha256(f"{scene.source_digest} {scene.camera.width} {scene.camera.height}".encode())
     h.update(np.ascontiguousarray(scene.geometry.positions, np.float64).tobytes())
     h.update(np.ascontiguousarray(scene.geometry.faces, np.int64).tobytes())
     return h.hexdigest()
@@ -223,6 +231,7 @@ class SceneRef:
     path: str | None = None
     """Path mode: the scene file, its integrator and the client's emitter selection."""
     integrator: str | None = None
+    size: tuple[int, int] | None = None
     emitter_pmf: np.ndarray | None = None
     emitter_cdf: np.ndarray | None = None
 
@@ -248,7 +257,7 @@ def _worker_scene(ref: SceneRef, blob: bytes | None):
             from brdflab.scene.loader import load_scene
 
             try:
-                scene = load_scene(ref.path, ref.integrator)
+                scene = load_scene(ref.path, ref.integrator, width=ref.size[0], height=ref.size[1])
             except BrdflabError as exc:
                 raise BrdflabError(f"worker {where}: {exc}") from None
             scene.emitter_pmf, scene.emitter_cdf = ref.emitter_pmf, ref.emitter_cdf
@@ -426,7 +435,7 @@ class Cluster:
         if self.scene_transfer == "path":
             path = str(Path(scene.path).resolve())
             ref = SceneRef(_path_fingerprint(scene), code_digest(), path, scene.integrator_type,
-                           scene.emitter_pmf, scene.emitter_cdf)
+                           (scene.camera.width, scene.camera.height), scene.emitter_pmf, scene.emitter_cdf)
             return ref, None
         blob = scene_bytes(scene)
         ref = SceneRef(hashlib.sha256(blob).hexdigest(), code_digest())

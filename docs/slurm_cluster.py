@@ -24,7 +24,7 @@ def make_cluster(queue: str | None = None, account: str | None = None, host: str
     """A ``dask_jobqueue.SLURMCluster`` for brdflab workers (no job is submitted until ``scale``)."""
     from dask_jobqueue import SLURMCluster
 
-    scheduler = {"dashboard_address": dashboard_address} if dashboard_address else {"dashboard": False}
+    scheduler = {"dashboard_address": dashboard_address, "dashboard": bool(dashboard_address)}
     if host:
         scheduler["host"] = host
     options = dict(JOB, queue=queue, account=account, python=sys.executable, scheduler_options=scheduler)

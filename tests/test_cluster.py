@@ -82,6 +82,23 @@ def test_render_bit_identical_to_local_for_any_task_size(cluster, tmp_path):
     assert not np.array_equal(img[..., 0], ref[..., 0])
 
 
+def test_plugin_material_and_overrides_reach_the_workers(cluster, tmp_path):
+    import brdflab as bl
+    from brdflab import plugins
+
+    text = small_cbox(tmp_path).read_text().replace('<bsdf type="roughconductor">', '<bsdf type="uniform_lambert">', 1)
+    text = text.replace('<color name="R0" value="0.91, 0.92, 0.92"/><float name="alpha" value="0.3"/>', "", 1)
+    (tmp_path / "plugin.xml").write_text(text)
+    try:
+        scene = bl.load_scene(tmp_path / "plugin.xml", width=40, height=30, emitter_selection="power",
+                              plugins=[str(ROOT / "tests" / "plugins" / "uniform_lambert.py")])
+        ref = bl.render(scene, spp=8, seed=3, workers=2)
+        assert np.array_equal(bl.render(scene, spp=8, seed=3, cluster=cluster), ref)
+    finally:
+        plugins.unregister_bsdf("uniform_lambert")
+        plugins.unregister_bsdf("uniform_lambert_broken")
+
+
 def test_path_transfer_refuses_a_different_file(cluster, tmp_path):
     path = small_cbox(tmp_path)
     path.write_text(path.read_text().replace('value="0.3"', 'value="0.35"'))  # a scene no worker has seen
