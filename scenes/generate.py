@@ -19,6 +19,12 @@ veach/     A Veach-style MIS scene (after Veach's thesis, fig. 9.2): four glossy
            bisector of the directions from its centre to the camera and to the centre of the light row.
 envlit/    A rough copper sphere on a ground plane lit by a procedural HDR sky (``sky.exr``), and a white
            furnace: a diffuse sphere (albedo 0.5) in a constant environment of radiance 1.
+lights/    Small (64 × 48) canonical scenes for the light paths the other scenes do not walk, each with a
+           diffuse half of the floor (closed-form irradiance, see ``tests/test_light_paths.py``) and a glossy
+           half: ``sphere_light`` (one faceted triangle-mesh sphere light: non-quad, non-planar, per-triangle
+           normals), ``polygon_lights`` (a planar hexagon fan and a smooth-normal sphere light: the fused
+           area-light set with interpolated light normals), ``mixed_lights`` (a triangle light, a point light
+           and a constant environment: emitter selection matters; delta light under MIS).
 """
 
 from __future__ import annotations
@@ -265,12 +271,81 @@ def envlit(out: Path) -> None:
                                             "every sphere pixel must be 0.5", "direct_ems", furnace))
 
 
+# -- light-path scenes ----------------------------------------------------------------------------------------
+def fan(center, radius: float, n: int, tilt_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A planar regular n-gon as a triangle fan around its centre, tilted about x, facing down (−y)."""
+    a = 2 * np.pi * np.arange(n) / n
+    ring = np.stack([radius * np.cos(a), np.zeros(n), radius * np.sin(a)], axis=1)
+    t = np.radians(tilt_deg)
+    rot = np.array([[1, 0, 0], [0, np.cos(t), -np.sin(t)], [0, np.sin(t), np.cos(t)]])
+    v = np.concatenate([[[0.0, 0.0, 0.0]], ring]) @ rot.T + np.asarray(center, dtype=np.float64)
+    faces = np.array([[0, 1 + k, 1 + (k + 1) % n] for k in range(n)])
+    nrm = np.cross(v[faces[0, 1]] - v[0], v[faces[0, 2]] - v[0])
+    if nrm[1] > 0:
+        faces = faces[:, [0, 2, 1]]
+    return v, faces, None, None
+
+
+def facing_down(v) -> tuple[np.ndarray, np.ndarray, None, None]:
+    """One triangle, wound so that its normal points down (−y)."""
+    v = np.array(v, dtype=np.float64)
+    f = np.array([[0, 1, 2]])
+    if np.cross(v[1] - v[0], v[2] - v[0])[1] > 0:
+        f = f[:, [0, 2, 1]]
+    return v, f, None, None
+
+
+#: Light geometry of the light-path scenes (shared with the tests' closed forms through the OBJ files).
+LIGHT_SCENES_CAMERA = ((0.0, 3.5, 4.5), (0.0, 0.3, 0.0), (0, 1, 0), 55, 64, 48)
+
+
+def light_scenes(out: Path) -> None:
+    """Canonical scenes for triangle-mesh, polygon, smooth, point and environment lights (64 × 48)."""
+    meshes = out / "meshes"
+    write_obj(meshes / "floor_left.obj", *quad((-3, 0, 3), (0, 0, 3), (0, 0, -3), (-3, 0, -3)),
+              comment="left half of the floor (diffuse: closed-form irradiance)")
+    write_obj(meshes / "floor_right.obj", *quad((0, 0, 3), (3, 0, 3), (3, 0, -3), (0, 0, -3)),
+              comment="right half of the floor (glossy)")
+    v, f, _, _ = uv_sphere((-0.2, 1.1, 0.0), 0.35, 8, 16)
+    write_obj(meshes / "faceted_sphere.obj", v, f, comment="faceted sphere light (no vn: flat triangles)")
+    write_obj(meshes / "smooth_sphere.obj", *uv_sphere((1.0, 0.9, -0.6), 0.2, 12, 24),
+              comment="smooth sphere light (vn: interpolated light normals)")
+    write_obj(meshes / "hexagon.obj", *fan((-0.7, 1.4, 0.3), 0.45, 6, 20.0)[:2],
+              comment="planar hexagon light, a 6-triangle fan facing down")
+    write_obj(meshes / "triangle.obj", *facing_down([(-1.2, 1.3, -0.3), (-0.2, 1.5, -0.6), (-0.6, 1.2, 0.5)])[:2],
+              comment="one triangle light facing down")
+    write_obj(meshes / "ball.obj", *uv_sphere((1.0, 0.35, 0.4), 0.35, 12, 24), comment="glossy ball on the floor")
+    cam = sampler(16) + camera(*LIGHT_SCENES_CAMERA)
+    floor = mesh("meshes/floor_left.obj", diffuse((0.5, 0.5, 0.5)))
+    bodies = {
+        "sphere_light": (floor + mesh("meshes/floor_right.obj", conductor((0.9, 0.8, 0.7), 0.15))
+                         + mesh("meshes/ball.obj", substrate((0.3, 0.4, 0.6), 0.1))
+                         + mesh("meshes/faceted_sphere.obj", area((6.0, 5.0, 4.0))),
+                         "one faceted sphere light (a non-quad triangle mesh)"),
+        "polygon_lights": (floor + mesh("meshes/floor_right.obj", substrate((0.6, 0.3, 0.2), 0.08))
+                           + mesh("meshes/ball.obj", conductor((0.95, 0.64, 0.54), 0.25))
+                           + mesh("meshes/hexagon.obj", area((5.0, 5.0, 6.0)))
+                           + mesh("meshes/smooth_sphere.obj", area((12.0, 9.0, 6.0))),
+                           "a planar hexagon light and a smooth sphere light (fused area lights)"),
+        "mixed_lights": (floor + mesh("meshes/floor_right.obj", substrate((0.2, 0.5, 0.3), 0.12))
+                         + mesh("meshes/triangle.obj", area((9.0, 8.0, 7.0)))
+                         + '  <emitter type="pointlight"><point name="position" value="0.8, 1.6, 0.6"/>'
+                           '<color name="radiance" value="3, 3, 2.5"/></emitter>\n'
+                         + '  <emitter type="environment"><color name="radiance" value="0.25, 0.3, 0.4"/></emitter>\n',
+                         "a triangle light, a point light and a constant environment"),
+    }
+    for name, (body, what) in bodies.items():
+        for integ in ("direct_ems", "direct_mats", "direct_mis"):
+            write(out / f"{name}_{integ.split('_')[1]}.xml", scene(f"{what}, {integ}", integ, cam + body))
+
+
 def main() -> None:
     """Write every bundled scene."""
     cornell_box(HERE / "cbox")
     checker(HERE / "checker")
     veach(HERE / "veach")
     envlit(HERE / "envlit")
+    light_scenes(HERE / "lights")
     print(f"wrote scenes into {HERE}")
 
 
