@@ -52,6 +52,8 @@ _EXPORTS = {
     "furnace_test": "brdflab.validate:furnace_test",
     "stability_test": "brdflab.validate:stability_test",
     "run_battery": "brdflab.validate:run_battery",
+    "emitter_checks": "brdflab.validate:emitter_checks",
+    "estimator_agreement": "brdflab.validate:estimator_agreement",
 }
 
 __all__ = ["__version__", *_EXPORTS]

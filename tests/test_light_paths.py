@@ -211,6 +211,6 @@ def test_estimators_agree(name, selection):
 def test_agreement_rejects_a_forgotten_selection_probability(name):
     """Negative control: light samples divided by p_ω instead of p_sel·p_ω (emitters still chosen by p_sel);
     per-emitter sampling (mixed) and the fused area-light set (polygon)."""
-    r = ag.estimator_agreement(LIGHTS / f"{name}_mis.xml", prepare=ag.forget_selection_probability, reps=10,
+    r = ag.estimator_agreement(LIGHTS / f"{name}_mis.xml", prepare=ag.forget_selection_probability, reps=12,
                                estimators=("direct_ems", "direct_mats"))
-    assert not r.passed and r.p_value < 1e-4, (name, r.p_value, r.worst)
+    assert not r.passed and r.p_value < 1e-3, (name, r.p_value, r.worst)

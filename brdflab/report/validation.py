@@ -152,7 +152,7 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
     page = render("validation.html.j2", title=title, summary=summary, negative=negative,
                   negative_what="the conductor's pdf without the 1/(4|ω_o·ω_h|) Jacobian, which the test must reject",
                   failures=failures, details=details, views_note=VIEWS_NOTE, rows=rows, consistency=consistency,
-                  albedo=albedo, stability=stab)
+                  albedo=albedo, stability=stab, light=_light_transport(bat))
     path = out / "index.html"
     path.write_text(page)
     return path
@@ -171,3 +171,21 @@ def _seed_of(r: c2.Chi2Result, k: int) -> int:
     import zlib
 
     return zlib.crc32(repr(("view", r.name, sorted((str(a), repr(b)) for a, b in (r.params or {}).items()))).encode())
+
+
+def _light_transport(bat: Battery) -> dict | None:
+    """Table rows of the emitter checks and the estimator agreement, with their negative controls."""
+    if not (bat.emitter_chi2 or bat.emitter_pdf or bat.agreement or bat.agreement_negative):
+        return None
+
+    def row(cells, ok, negative=False):
+        cls, text = _verdict(not ok if negative else ok)
+        return {"cells": cells, "cls": cls, "text": text + (" (must be rejected)" if negative else "")}
+
+    chi = [row([r.name, " ".join(f"{k}={v}" for k, v in r.params.items()), f"{r.statistic:.1f}", r.dof,
+                f"{r.p_value:.4g}"], r.passed) for r in bat.emitter_chi2]
+    pdf = [row([r.name, r.compared, f"{r.max_rel_error:.2g}"], r.passed) for r in bat.emitter_pdf]
+    neg = [row([name, detail], not rejected, negative=True) for name, rejected, detail in bat.emitter_negative]
+    agree = [row([r.name, r.tests, f"{r.p_value:.3g}", r.worst, ", ".join(f"{k} {v:.4g}" for k, v in r.means.items())],
+                 r.passed, negative=r in bat.agreement_negative) for r in bat.agreement + bat.agreement_negative]
+    return {"chi2": chi, "pdf": pdf, "negative": neg, "agreement": agree}

@@ -152,3 +152,30 @@ def run_battery(*args: Any, **kwargs: Any):
     from brdflab.validate.battery import run_battery as _run
 
     return _run(*args, **kwargs)
+
+
+def emitter_checks(scene, n: int = 100_000, seed: int = 0) -> tuple[list, list]:
+    """Chi-square tests of every emitter sampler of ``scene`` (area lights by area, the fused set, the
+    environment's directions) and ``sample().pdf`` against the hit pdf; see :mod:`brdflab.validate.emitters`.
+    Returns (chi-square results, pdf checks)."""
+    from brdflab.integrator.common import area_light_set
+    from brdflab.validate import emitters
+
+    chi = []
+    for k, em in enumerate(scene.emitters):
+        if em.is_environment:
+            chi.append(emitters.environment_test(f"environment {k}", em, n, default_seed("env", k, seed)))
+        elif not em.is_delta:
+            ref, _ = emitters.reference_points(scene, seed=seed)
+            chi.append(emitters.area_emitter_test(f"area light {k}", em, ref, n, default_seed("area", k, seed)))
+    if area_light_set(scene) is not None:
+        ref, _ = emitters.reference_points(scene, seed=seed)
+        chi.append(emitters.fused_set_test("fused area lights", scene, ref, n, default_seed("fused", seed)))
+    return chi, emitters.pdf_checks(scene, str(getattr(scene, "path", "scene")), seed=seed)
+
+
+def estimator_agreement(path: Any, **kwargs: Any):
+    """ems vs mats vs mis on one scene file; see :func:`brdflab.validate.agreement.estimator_agreement`."""
+    from brdflab.validate.agreement import estimator_agreement as _agree
+
+    return _agree(path, **kwargs)

@@ -98,13 +98,29 @@ class Battery:
     albedo: list[furnace.AlbedoPoint] = field(default_factory=list)
     stability: list[stability.StabilityRow] = field(default_factory=list)
     threshold: float = c2.SIGNIFICANCE
+    # -- light transport (brdflab.validate.emitters / agreement) --
+    emitter_chi2: list[c2.Chi2Result] = field(default_factory=list)
+    emitter_pdf: list = field(default_factory=list)
+    """:class:`brdflab.validate.emitters.PdfCheck` per emitter sampler."""
+    emitter_negative: list[tuple[str, bool, str]] = field(default_factory=list)
+    """(what, rejected, detail) of the emitter negative controls."""
+    agreement: list = field(default_factory=list)
+    """:class:`brdflab.validate.agreement.AgreementResult` per canonical scene and selection rule."""
+    agreement_negative: list = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
         """Everything passed and the negative control was rejected."""
         return (all(r.passed for r in self.chi2) and all(not r.passed for r in self.negative_control)
                 and all(r.passed for r in self.consistency) and all(p.passed for p in self.albedo)
-                and all(r.passed for r in self.stability))
+                and all(r.passed for r in self.stability) and self.light_transport_passed)
+
+    @property
+    def light_transport_passed(self) -> bool:
+        """Emitter checks and estimator agreement passed, and their negative controls were rejected."""
+        return (all(r.passed for r in self.emitter_chi2) and all(r.passed for r in self.emitter_pdf)
+                and all(rejected for _, rejected, _ in self.emitter_negative) and all(r.passed for r in self.agreement)
+                and all(not r.passed for r in self.agreement_negative))
 
     def failures(self) -> list[str]:
         """Human-readable list of what failed."""
@@ -116,6 +132,14 @@ class Battery:
                 for p in self.albedo if not p.passed]
         out += [f"stability {r.material} / {r.case}: {r.nan} NaN, {r.inf} inf, {r.negative} negative"
                 for r in self.stability if not r.passed]
+        out += [f"emitter chi2 {r.name}: p = {r.p_value:.3g} ≤ {r.threshold:.2g}" for r in self.emitter_chi2
+                if not r.passed]
+        out += [f"emitter pdf {r.name}: {r.compared} samples, max rel. error {r.max_rel_error:.3g}"
+                for r in self.emitter_pdf if not r.passed]
+        out += [f"emitter negative control {n} was NOT rejected ({d})" for n, ok, d in self.emitter_negative if not ok]
+        out += [f"agreement {r.name}: p = {r.p_value:.3g}; {r.worst}" for r in self.agreement if not r.passed]
+        out += [f"agreement negative control {r.name} was NOT rejected (p = {r.p_value:.3g})"
+                for r in self.agreement_negative if r.passed]
         return out
 
 
@@ -171,7 +195,7 @@ def _fmt(params: dict) -> str:
 
 def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: list[str] | None = None,
                 alphas=ALPHAS, thetas=THETAS, params: dict | None = None, full: bool = True,
-                progress: Callable[[str], None] | None = None) -> Battery:
+                progress: Callable[[str], None] | None = None, light_transport: bool | None = None) -> Battery:
     """Run the battery.
 
     Parameters
@@ -186,6 +210,9 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
         Extra material parameters (e.g. ``R0``, ``kd``, ``intIOR``).
     full
         Also run the consistency, furnace and stability checks and the negative control.
+    light_transport
+        Also check the emitters' samplers and the estimators' agreement on the generated light scenes
+        (:func:`run_light_transport`); default: for the whole battery (``full``, all BSDFs and warps).
     """
     tests = plan(bsdfs, warp_names, alphas, thetas)
     threshold = c2.sidak(c2.SIGNIFICANCE, len(tests))
@@ -229,4 +256,17 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
         bad = [r for r in bat.stability if not r.passed]
         progress(f"{'PASS' if not bad else 'FAIL'}  stability: {len(bat.stability)} extreme cases, {len(bad)} with "
                  "NaN/inf/negative values")
+    if light_transport or (light_transport is None and bsdfs is None and warp_names is None):
+        run_light_transport(bat, min(n, 100_000), progress)
+    return bat
+
+
+def run_light_transport(bat: Battery, n: int = 100_000, progress: Callable[[str], None] | None = None) -> Battery:
+    """Add the emitter checks (:mod:`brdflab.validate.emitters`) and the estimator agreement
+    (:mod:`brdflab.validate.agreement`) with their negative controls to ``bat``."""
+    from brdflab.validate import agreement, emitters
+
+    bat.emitter_chi2, bat.emitter_pdf = emitters.run(n, progress)
+    bat.emitter_negative = emitters.negative_controls(n, progress)
+    bat.agreement, bat.agreement_negative = agreement.run(progress)
     return bat

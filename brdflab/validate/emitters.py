@@ -10,9 +10,10 @@
   adaptive quadrature of :func:`brdflab.validate.chi2.chi2_test`.
 * **pdf consistency**: for every emitter of a scene, light samples drawn from the scene's shading points
   are located on the light's triangles (with the light's shading normal there, from the geometry); the
-  density the integrators use for a BSDF-sampled ray that reaches the same point (``pdf_hit``, ``eval_pdf_hit`` of the fused set, the environment's
-  ``pdf``) must equal the sample's own pdf (relative error ≤ 1e-8). Point lights: pdf 1 and radiance I/r²
-  exactly. A check with too few comparable samples fails (no data is not a pass).
+  density the integrators use for a BSDF-sampled ray that reaches the same point (``pdf_hit``,
+  ``eval_pdf_hit`` of the fused set, the environment's ``pdf``) must equal the sample's own pdf
+  (relative error ≤ 1e-8). Point lights: pdf 1 and radiance I/r² exactly. A check with too few
+  comparable samples fails (no data is not a pass).
 
 Negative controls (:func:`negative_controls`): triangles chosen uniformly instead of by area, an
 environment pdf without the sin θ Jacobian, and a hit pdf without the light's cosine must all be rejected.
@@ -109,7 +110,8 @@ def subtriangle_cell(b: np.ndarray, n: int) -> np.ndarray:
 
 def area_points_test(name: str, sample: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
                      tris: np.ndarray, prob: np.ndarray, ref: np.ndarray, n: int, seed: int,
-                     threshold: float = c2.SIGNIFICANCE, uniforms: int = 3, params: dict | None = None) -> c2.Chi2Result:
+                     threshold: float = c2.SIGNIFICANCE, uniforms: int = 3,
+                     params: dict | None = None) -> c2.Chi2Result:
     """Chi-square of sampled light points against a density uniform within each triangle.
 
     Parameters
