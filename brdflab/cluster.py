@@ -60,6 +60,7 @@ import atexit
 import functools
 import hashlib
 import io
+import itertools
 import logging
 import os
 import pickle
@@ -70,7 +71,7 @@ import time
 import uuid
 import weakref
 from collections import OrderedDict, deque
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -441,7 +442,7 @@ class Cluster:
         ref = SceneRef(hashlib.sha256(blob).hexdigest(), code_digest())
         return ref, self.client.scatter(blob, broadcast=True, hash=False)
 
-    def results(self, scene, units: Sequence[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
+    def results(self, scene, units: Iterable[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
         """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``
         (the executor interface of :func:`brdflab.render.render`). A lost scheduler ends the iteration
         and is recorded in :attr:`failure`; other task errors are raised."""
@@ -459,7 +460,8 @@ class Cluster:
             self.failure = ClusterError(f"lost the Dask cluster at {self.address}: {_one_line(exc)}")
             return
         k = self.task_units
-        batches = (list(units[i:i + k]) for i in range(0, len(units), k))
+        unit_iter = iter(units)  # a lazy stream (huge sample counts build no list)
+        batches = iter(lambda: list(itertools.islice(unit_iter, k)), [])
         pending: deque = deque()
         state = {"next": 0, "window": WINDOW * self.workers, "checked": time.monotonic()}
 

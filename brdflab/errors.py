@@ -7,7 +7,48 @@ traceback. Anything else is a bug in brdflab.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+
+#: Echoed values (a token from a file, an attribute, a command-line value) are cut to this many characters.
+ECHO_CHARS = 60
+#: A whole error or warning line is cut to this many characters.
+MESSAGE_CHARS = 300
+#: Exit statuses of the ``brdflab`` command (see the README, "Exit status").
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_USAGE = 0, 1, 2
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\ud800-\udfff]")
+
+
+def _escape_char(m: re.Match) -> str:
+    c = m.group(0)
+    o = ord(c)
+    if 0xDC80 <= o <= 0xDCFF:  # a byte that was not valid UTF-8 (surrogateescape, e.g. in a file name)
+        return f"\\x{o - 0xDC00:02x}"
+    return {"\n": "\\n", "\t": "\\t", "\r": "\\r"}.get(c, f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}")
+
+
+def clean(text: object, limit: int = ECHO_CHARS) -> str:
+    """Return ``text`` made safe to show in a one-line message.
+
+    Control characters (ESC, BEL, NUL, newlines, …) and undecodable bytes are escaped (``\\x1b``) and the
+    result is cut to ``limit`` characters followed by "…". Only the first ``4 · limit`` characters of
+    ``text`` are ever looked at, so a value of hundreds of megabytes costs nothing.
+
+    Every message that echoes user input (an XML attribute, an OBJ token, an EXR header, a command-line
+    value, a path) passes it through this function.
+    """
+    s = text if isinstance(text, str) else str(text)
+    long = len(s) > limit
+    s = _CONTROL.sub(_escape_char, s[: 4 * limit + 1])
+    if long or len(s) > limit:
+        return s[: max(limit - 1, 1)] + "…"
+    return s
+
+
+def quoted(text: object, limit: int = ECHO_CHARS) -> str:
+    """``'value'`` as :func:`clean` makes it, in single quotes (the form messages use for echoed input)."""
+    return f"'{clean(text, limit)}'"
 
 
 class BrdflabError(Exception):
@@ -50,8 +91,21 @@ class BrdflabError(Exception):
         return loc
 
     def __str__(self) -> str:
-        loc = self.location()
-        return f"{loc}: {self.message}" if loc else self.message
+        loc = clean(self.location(), 120)
+        return clean(f"{loc}: {self.message}" if loc else self.message, MESSAGE_CHARS)
+
+
+class ResourceError(BrdflabError):
+    """A run would need more memory (or other resources) than the configured limit."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by a signal (SIGINT, SIGTERM or SIGHUP); the exit status is 128 + signal number."""
+
+    def __init__(self, signum: int, message: str = "interrupted") -> None:
+        super().__init__(message)
+        self.signum = signum
+        self.message = message
 
 
 class SceneError(BrdflabError):

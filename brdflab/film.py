@@ -120,6 +120,12 @@ class Filter:
         "box": {},
     }
 
+    #: Accepted filter radii in pixels: below 1/4 most pixels would receive no sample; above 64 the tile
+    #: films' borders would dwarf the tiles.
+    RADIUS_RANGE = (0.25, 64.0)
+    #: Largest number of sub-pixel phases tabulated for the separable splat (radii ≥ 32/4096).
+    MAX_PHASES = 4096
+
     def __init__(self, kind: str = "gaussian", radius: float = 2.0, stddev: float = 0.5,
                  b: float = 1.0 / 3.0, c: float = 1.0 / 3.0) -> None:
         self.kind = kind
@@ -130,7 +136,8 @@ class Filter:
         self.radius = radius
         x = radius * np.arange(FILTER_TABLE) / FILTER_TABLE
         if kind == "gaussian":
-            f = np.maximum(0.0, np.exp(-x * x / (2 * stddev**2)) - np.exp(-radius * radius / (2 * stddev**2)))
+            s2 = 2 * np.float64(stddev) ** 2  # NumPy scalars: σ → 0 gives inf/nan (checked by the caller), no exception
+            f = np.maximum(0.0, np.exp(-x * x / s2) - np.exp(-radius * radius / s2))
         elif kind == "tent":
             f = np.maximum(0.0, 1.0 - np.abs(x))
         elif kind == "box":
@@ -147,7 +154,7 @@ class Filter:
         self.taps = int(np.floor(2 * radius)) + 1
         # Phase tables for the separable splat (see the module docstring).
         phases = FILTER_TABLE / radius
-        self.phases = int(round(phases)) if abs(phases - round(phases)) < 1e-9 else 0
+        self.phases = int(round(phases)) if abs(phases - round(phases)) < 1e-9 and phases <= self.MAX_PHASES else 0
         #: log₂ of the phase count when it is a power of two (the default filters: 16, 32, 64), else None.
         self.phase_bits = (self.phases.bit_length() - 1 if self.phases and self.phases & (self.phases - 1) == 0
                            else None)
@@ -166,11 +173,23 @@ class Filter:
         """Build from an ``<rfilter>`` of the given type."""
         props.check_known(cls.KNOWN[kind])
         if kind == "gaussian":
-            return cls(kind, props.positive_float("radius", 2.0), props.positive_float("stddev", 0.5))
-        if kind == "mitchell":
-            return cls(kind, props.positive_float("radius", 2.0), b=props.get_float("B", 1 / 3),
-                       c=props.get_float("C", 1 / 3))
-        return cls(kind)
+            radius = props.finite_float("radius", 2.0, *cls.RADIUS_RANGE)
+            stddev = props.positive_float("stddev", 0.5)
+            name = "stddev"
+            with np.errstate(all="ignore"):
+                filt = cls(kind, radius, stddev)
+        elif kind == "mitchell":
+            radius = props.finite_float("radius", 2.0, *cls.RADIUS_RANGE)
+            b, c = props.finite_float("B", 1 / 3), props.finite_float("C", 1 / 3)
+            name = "B"
+            filt = cls(kind, radius, b=b, c=c)
+        else:
+            return cls(kind)
+        # A degenerate parameter (σ = 1e-200 divides by zero; B and C that cancel the cubic) leaves a table
+        # with no positive weight: every pixel would stay black.
+        if not (np.all(np.isfinite(filt.table)) and filt.table.max() > 0):
+            raise props.error(name, f"the {kind} filter's weights are zero or not finite with these parameters")
+        return filt
 
     def weights(self, d: np.ndarray) -> np.ndarray:
         """Tabulated filter value at distances ``d`` (entry ⌊d·32/r⌋, 0 beyond the radius)."""

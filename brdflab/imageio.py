@@ -4,7 +4,9 @@ EXR files are written as Nori writes them: scanline, three 32-bit float channels
 compression, a ``comments`` attribute. PNG files are 8-bit sRGB with Nori's transfer curve and
 truncating quantisation: byte = ⌊clamp(255·s(c), 0, 255)⌋ with s the sRGB OETF (IEC 61966-2-1).
 All writes are atomic: a temporary file in the same folder is renamed
-into place, so an interrupted run never leaves a half-written image.
+into place, so an interrupted run never leaves a half-written image; an EXR + PNG pair is replaced
+together or not at all (:func:`write_images`, :func:`write_files`). Input files go through
+:func:`brdflab.limits.check_input` (regular file, size limit) first.
 
 PNG goes through Pillow directly (matplotlib's writer wraps it, and importing matplotlib took ~0.4 s of
 every render's run time) with zlib level 1: 800×600 renders encode 3–5× faster than at the default level 6
@@ -18,33 +20,154 @@ import os
 import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from brdflab.errors import ImageError
+from brdflab.errors import ImageError, clean
+from brdflab.limits import check_input, check_memory
+
+#: Temporary files being written right now; a second signal removes them before the process exits.
+_TEMPORARIES: set[str] = set()
+
+
+def remove_temporaries() -> None:
+    """Delete the temporary files of writes in progress (called when a run is aborted by a second signal)."""
+    for tmp in list(_TEMPORARIES):
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        _TEMPORARIES.discard(tmp)
+
+
+def _write_error(path: Path, exc: BaseException) -> ImageError:
+    reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc) or type(exc).__name__
+    return ImageError(f"cannot write image: {clean(reason, 120)}", path)
+
+
+@contextmanager
+def output_lock(folder: str | Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``folder`` (``flock`` of the directory itself, so no lock file is
+    left behind): concurrent brdflab runs writing into the same folder replace their files one after
+    the other, never interleaved."""
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no locking
+        yield
+        return
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+@contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM/SIGHUP back during the renames (a few system calls), so that a signal can never
+    leave one file of a pair replaced and the other not; they are delivered right after."""
+    import signal
+    import threading
+
+    sigs = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _temporary(path: Path) -> str:
+    # An ASCII name (the final name may hold bytes that are not UTF-8, which OpenEXR cannot take).
+    fd, tmp = tempfile.mkstemp(prefix=".brdflab-", suffix=".tmp" + path.suffix.encode("ascii", "replace").decode(),
+                               dir=path.parent)
+    os.close(fd)
+    _TEMPORARIES.add(tmp)
+    return tmp
+
+
+def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[float]:
+    """Write several files so that they are replaced together or not at all; return each writer's seconds.
+
+    Every ``writer(temporary_path)`` runs first, into temporaries beside the targets (the first in this
+    thread, the others at the same time on threads of their own); only when all succeeded are the
+    targets replaced, by renames under :func:`output_lock` of their folder with SIGINT/SIGTERM/SIGHUP held
+    back. If a rename fails, the files already replaced get their previous contents back. On any failure
+    the temporaries are removed, the old files are untouched and :class:`ImageError` says why (a full
+    disk is "No space left on device").
+    """
+    paths = [Path(p) for p, _ in items]
+    temps: list[str] = []
+    took = [0.0] * len(items)
+    errors: list[ImageError | None] = [None] * len(items)
+    umask = os.umask(0o022)  # read (and restore) once, before any thread starts
+    os.umask(umask)
+
+    def job(i: int) -> None:
+        t0 = time.perf_counter()
+        try:
+            items[i][1](temps[i])
+            os.chmod(temps[i], 0o666 & ~umask)  # mkstemp creates 0600; give the image the usual permissions
+        except Exception as exc:  # OpenEXR raises RuntimeError, Pillow OSError/ValueError
+            errors[i] = _write_error(paths[i], exc)
+        took[i] = time.perf_counter() - t0
+
+    try:
+        for path in paths:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                temps.append(_temporary(path))
+            except OSError as exc:
+                raise _write_error(path, exc) from None
+        threads = [threading.Thread(target=job, args=(i,), name="brdflab-write") for i in range(1, len(items))]
+        for th in threads:
+            th.start()
+        job(0)
+        for th in threads:
+            th.join()
+        failed = next((e for e in errors if e is not None), None)
+        if failed is not None:
+            raise failed
+        with output_lock(paths[0].parent), _signals_blocked():
+            backups: list[tuple[Path, str | None]] = []
+            try:
+                for path, tmp in zip(paths, temps, strict=True):
+                    backup = None
+                    if len(paths) > 1 and path.exists():
+                        backup = _temporary(path)
+                        os.replace(path, backup)
+                    backups.append((path, backup))
+                    os.replace(tmp, path)
+            except OSError as exc:
+                for old, backup in reversed(backups):
+                    if backup is not None:
+                        os.replace(backup, old)
+                raise _write_error(path, exc) from None
+            for _, backup in backups:
+                if backup is not None:
+                    os.unlink(backup)
+                    _TEMPORARIES.discard(backup)
+    finally:
+        for tmp in temps:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            _TEMPORARIES.discard(tmp)
+    return took
 
 
 def _atomic_write(path: str | Path, writer: Callable[[str], None]) -> None:
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
-        os.close(fd)
-    except OSError as exc:
-        raise ImageError(f"cannot write image: {exc.strerror}", path) from None
-    try:
-        writer(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the image the usual permissions
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise ImageError(f"cannot write image: {exc.strerror}", path) from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_files([(path, writer)])
 
 
 def read_exr(path: str | Path) -> np.ndarray:
@@ -58,13 +181,13 @@ def read_exr(path: str | Path) -> np.ndarray:
     import OpenEXR
 
     path = Path(path)
-    if not path.is_file():
-        raise ImageError("EXR file not found", path)
+    width, height = exr_size(path)
+    check_memory(width * height * 4 * 4 * 3, f"decoding the {width}×{height} EXR image {clean(path.name)}")
     try:
         f = OpenEXR.File(str(path))
         channels = {name: ch.pixels for name, ch in f.channels().items()}
     except Exception as exc:  # OpenEXR raises plain exceptions for corrupt files
-        raise ImageError(f"cannot read EXR file ({exc})", path) from None
+        raise ImageError(f"cannot read EXR file ({clean(exc, 100)})", path) from None
     if "RGB" in channels:
         rgb = channels["RGB"]
     elif "RGBA" in channels:
@@ -74,20 +197,42 @@ def read_exr(path: str | Path) -> np.ndarray:
     elif "Y" in channels:
         rgb = np.repeat(channels["Y"][..., None], 3, axis=-1)
     else:
-        raise ImageError(f"EXR file has no R, G, B (or Y) channels; it has {sorted(channels)}", path)
+        raise ImageError(f"EXR file has no R, G, B (or Y) channels; it has {clean(sorted(channels))}", path)
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
 def read_exr_header(path: str | Path) -> dict:
-    """Return the header attributes of an EXR file as a dict."""
+    """Return the header attributes of an EXR file as a dict (the pixels are not decoded)."""
     import OpenEXR
 
-    return dict(OpenEXR.File(str(path)).header())
+    check_input(path, "EXR file", ImageError)
+    try:
+        return dict(OpenEXR.File(str(path), header_only=True).header())
+    except Exception as exc:
+        raise ImageError(f"cannot read EXR file ({clean(exc, 100)})", path) from None
+
+
+def exr_size(path: str | Path) -> tuple[int, int]:
+    """(width, height) of an EXR file's data window, read from its header only."""
+    header = read_exr_header(path)
+    try:
+        lo, hi = header["dataWindow"]
+        width, height = int(hi[0]) - int(lo[0]) + 1, int(hi[1]) - int(lo[1]) + 1
+    except (KeyError, TypeError, ValueError, IndexError):
+        raise ImageError("EXR header has no valid dataWindow", path) from None
+    if width < 1 or height < 1:
+        raise ImageError(f"EXR data window is empty ({width}×{height})", path)
+    return width, height
 
 
 def write_exr(path: str | Path, rgb: np.ndarray, comments: str = "Generated by brdflab",
               extra: dict[str, str] | None = None) -> None:
     """Write a (H, W, 3) linear image as a 32-bit float RGB EXR, atomically."""
+    _atomic_write(path, _exr_writer(rgb, comments, extra))
+
+
+def _exr_writer(rgb: np.ndarray, comments: str = "Generated by brdflab",
+                extra: dict[str, str] | None = None) -> Callable[[str], None]:
     import OpenEXR
 
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
@@ -98,7 +243,14 @@ def write_exr(path: str | Path, rgb: np.ndarray, comments: str = "Generated by b
     def writer(tmp: str) -> None:
         OpenEXR.File(header, {"RGB": rgb}).write(tmp)
 
-    _atomic_write(path, writer)
+    return writer
+
+
+def _png_writer(rgb: np.ndarray) -> Callable[[str], None]:
+    from PIL import Image
+
+    data = srgb_bytes(rgb)
+    return lambda tmp: Image.fromarray(data, "RGB").save(tmp, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
 
 
 def srgb_bytes(rgb: np.ndarray) -> np.ndarray:
@@ -115,39 +267,16 @@ PNG_COMPRESS_LEVEL = 1
 
 def write_png(path: str | Path, rgb: np.ndarray) -> None:
     """Write a (H, W, 3) linear image as an 8-bit sRGB PNG, atomically."""
-    from PIL import Image
-
-    data = srgb_bytes(rgb)
-    _atomic_write(path, lambda tmp: Image.fromarray(data, "RGB").save(tmp, format="PNG",
-                                                                     compress_level=PNG_COMPRESS_LEVEL))
+    _atomic_write(path, _png_writer(rgb))
 
 
-def write_images(exr: str | Path, png: str | Path, rgb: np.ndarray, extra: dict[str, str] | None = None
-                 ) -> tuple[float, float]:
-    """Write ``rgb`` as the EXR ``exr`` (:func:`write_exr`) and the PNG ``png`` (:func:`write_png`) at the
-    same time (the PNG on a second thread); returns the seconds each took. An error of either write is
-    raised after both have finished."""
-    took = [0.0, 0.0]
-    failed: list[BaseException] = []
-
-    def png_job() -> None:
-        t0 = time.perf_counter()
-        try:
-            write_png(png, rgb)
-        except BaseException as exc:  # re-raised in the calling thread
-            failed.append(exc)
-        took[1] = time.perf_counter() - t0
-
-    th = threading.Thread(target=png_job, name="brdflab-png")
-    th.start()
-    t0 = time.perf_counter()
-    try:
-        write_exr(exr, rgb, extra=extra)
-    finally:
-        took[0] = time.perf_counter() - t0
-        th.join()
-    if failed:
-        raise failed[0]
+def write_images(exr: str | Path, png: str | Path, rgb: np.ndarray, extra: dict[str, str] | None = None,
+                 comments: str = "Generated by brdflab") -> tuple[float, float]:
+    """Write ``rgb`` as the EXR ``exr`` and its PNG preview ``png`` so that both are replaced together or
+    neither is (:func:`write_files`: a full disk or a concurrent run never leaves a mismatched or
+    half-replaced pair). The two encodings run at the same time (the PNG on a second thread; zlib and the
+    sRGB conversion release the GIL); returns the seconds each took."""
+    took = write_files([(exr, _exr_writer(rgb, comments, extra)), (png, _png_writer(rgb))])
     return took[0], took[1]
 
 

@@ -32,6 +32,7 @@ spp images as checkpoints (:func:`render` ``on_pass``), each with its elapsed ti
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import mmap
 import multiprocessing
@@ -42,15 +43,18 @@ import threading
 import time
 import types
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from brdflab.alloc import tune_allocator
+from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
+from brdflab.limits import WORKER_BYTES, check_memory
 from brdflab.scene.geometry import RayStats
 
 #: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
@@ -63,30 +67,39 @@ TASK_UNITS = 8
 #: 16 × 16 pixels, whose tile film (22 × 22 with the filter's border) is a third of a 16-spp unit's (38 × 38):
 #: less to splat, transfer and merge per sample (Cornell box, 2 workers, 64 spp: 4.94 → 4.75 s).
 BATCH_PASS = 64
+#: Most worker processes accepted (each costs memory, see :func:`render_memory`).
+MAX_WORKERS = 256
 #: Workers are forked processes on Linux; elsewhere threads (macOS system libraries are not fork-safe).
 FORK_WORKERS = sys.platform.startswith("linux")
 
 
-def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
-                  progressive: bool = True) -> list[int]:
-    """Sizes of the sample passes; they sum to ``spp``.
+def iter_passes(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
+                progressive: bool = True) -> Iterator[int]:
+    """Sizes of the sample passes, lazily; they sum to ``spp``.
 
     Progressive: 1, 1, 2, 4, … up to ``max_pass``, then ``max_pass`` (every power of two is a boundary).
     Otherwise ``max_pass`` each (fewer, larger units: the splat is cheapest per sample there). Every value
-    in ``checkpoints`` (≤ spp) is also made a pass boundary.
+    in ``checkpoints`` (≤ spp) is also made a pass boundary. Nothing is built ahead: a sample count of
+    2^63 costs nothing until its passes are rendered (a ``stop`` or ``time_limit`` ends it).
     """
-    stops = sorted({c for c in checkpoints if 0 < c < spp})
-    sizes: list[int] = []
+    stops = iter(sorted({c for c in checkpoints if 0 < c < spp}))
+    nxt = next(stops, None)
     done = 0
     while done < spp:
         size = (1 if done == 0 else min(done, max_pass)) if progressive else max_pass
         size = min(size, spp - done)
-        nxt = next((c for c in stops if c > done), None)
+        while nxt is not None and nxt <= done:
+            nxt = next(stops, None)
         if nxt is not None:
             size = min(size, nxt - done)
-        sizes.append(size)
+        yield size
         done += size
-    return sizes
+
+
+def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
+                  progressive: bool = True) -> list[int]:
+    """:func:`iter_passes` as a list (for small sample counts)."""
+    return list(iter_passes(spp, max_pass, checkpoints, progressive))
 
 
 def tiles_for(width: int, height: int, pass_spp: int) -> list[tuple[int, int, int, int]]:
@@ -94,6 +107,23 @@ def tiles_for(width: int, height: int, pass_spp: int) -> list[tuple[int, int, in
     side = int(np.clip(math.sqrt(UNIT_SAMPLES / pass_spp), 16, 256)) // 8 * 8
     return [(x, y, min(side, width - x), min(side, height - y))
             for y in range(0, height, side) for x in range(0, width, side)]
+
+
+def render_memory(width: int, height: int, filt, workers: int, max_tile: tuple[int, int]) -> int:
+    """Estimated bytes a render needs besides the scene: the image film and the pass film (4 float64
+    planes with the filter's border), the final image and its temporaries, the shared result slots of
+    the workers and :data:`~brdflab.limits.WORKER_BYTES` per worker."""
+    b = int(np.ceil(filt.radius)) + 1
+    films = 2 * 4 * 8 * (width + 2 * b) * (height + 2 * b)
+    image = (3 * 4 + 3 * 8 * 2) * width * height
+    slots = IN_FLIGHT * workers * TASK_UNITS * 4 * 8 * (max_tile[0] + 2 * b) * (max_tile[1] + 2 * b)
+    return films + image + (slots + workers * WORKER_BYTES if workers > 1 else 0)
+
+
+def max_tile_size(width: int, height: int) -> tuple[int, int]:
+    """(w, h) of the largest tile of any pass: that of a 1-spp pass (tiles shrink as passes grow)."""
+    first = tiles_for(width, height, 1)[0]
+    return first[2], first[3]
 
 
 @dataclass
@@ -140,6 +170,14 @@ class RenderStats:
 def _render_unit(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
                  seed: int) -> tuple[Film, int, int]:
     """Render one (pass, tile) unit into a tile film; returns (film, samples, dropped samples)."""
+    # Non-finite or negative samples are counted and dropped below (and reported in the summary); NumPy's
+    # floating-point warnings about them would only reach the user unlocated.
+    with np.errstate(all="ignore"):
+        return _render_unit_inner(scene, pass_index, tile_index, tile, spp, seed)
+
+
+def _render_unit_inner(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
+                       seed: int) -> tuple[Film, int, int]:
     x0, y0, w, h = tile
     cam = scene.camera
     rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence([seed, pass_index, tile_index])))
@@ -183,15 +221,56 @@ _FORK_SLOTS: np.ndarray | None = None
 _FORK_LOCK = threading.Lock()
 
 
+#: Process id of the process that forked the workers (checked by the workers: see :func:`_worker_init`).
+_PARENT_PID = 0
+#: Process pools of renders in progress, so that :func:`kill_workers` can end their processes at once.
+_ACTIVE_POOLS: set = set()
+PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+
 def _worker_init() -> None:
-    """In a forked worker: leave Ctrl-C to the parent, count rays afresh."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """In a forked worker: die with the parent, leave SIGINT/SIGTERM/SIGHUP to it, count rays afresh.
+
+    The parent handles the signals (it stops the render and writes the completed passes) and ends the
+    workers itself; a terminal's SIGHUP or a ``kill`` of the process group must not kill a worker in the
+    middle of a task. If the parent dies in any way (even SIGKILL), the kernel kills the workers
+    (``PR_SET_PDEATHSIG``); the parent-pid check covers a parent that died before the prctl call and
+    systems without prctl (see :func:`_process_units`).
+    """
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_IGN)
+    _die_with_parent()
+    if os.getppid() != _PARENT_PID:
+        os._exit(1)
     _FORK_SCENE.geometry.stats = RayStats()  # a fresh lock: the parent's may have been held at fork
+
+
+def kill_workers() -> None:
+    """SIGKILL the worker processes of every render in progress (a second Ctrl-C/SIGTERM: exit at once)."""
+    for pool in list(_ACTIVE_POOLS):
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            try:
+                os.kill(proc.pid, signal.SIGKILL)
+            except (OSError, AttributeError):
+                pass
 
 
 def _process_units(batch: list[tuple], slot: int) -> list[tuple[int, int, int, int, float]]:
     """Units in a forked worker. Their tile films go, one after the other, into the shared result slot
     ``slot``; returns per unit (offset in the slot, samples, dropped, rays, seconds in Embree)."""
+    if os.getppid() != _PARENT_PID:  # the parent is gone: nobody will read the result
+        os._exit(1)
     scene = _FORK_SCENE
     st = scene.geometry.stats
     buf = _FORK_SLOTS[slot]
@@ -216,13 +295,16 @@ def _executor(workers: int) -> tuple[Executor | None, bool]:
     return ThreadPoolExecutor(workers), False
 
 
-def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading.Event) -> Iterator[tuple]:
+def _results(scene, units: Iterable[tuple], seed: int, workers: int, halt: threading.Event) -> Iterator[tuple]:
     """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``.
 
-    Rays and seconds are those counted in worker processes (0 for in-process units, which count in
+    ``units`` (an iterable of (pass, tile, (x0, y0, w, h), spp)) is consumed lazily, a few tasks ahead of the
+    merge. Rays and seconds are those counted in worker processes (0 for in-process units, which count in
     ``scene.geometry.stats`` directly).
     """
     cam = scene.camera
+    units = iter(units)
+    max_tile = max_tile_size(cam.width, cam.height)
     pool, forked = _executor(workers)
     if pool is None:
         for u in units:
@@ -231,26 +313,27 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
             film, n, dropped = _render_unit(scene, *u, seed)
             yield film, n, dropped, 0, 0.0
         return
-    global _FORK_SCENE, _FORK_SLOTS
+    global _FORK_SCENE, _FORK_SLOTS, _PARENT_PID
     border = Film(1, 1, scene.filter).border
     with _FORK_LOCK if forked else nullcontext():
         free: deque = deque()
         if forked:
             _FORK_SCENE = scene
+            _PARENT_PID = os.getpid()
             # Tile films come back through shared memory (mapped before the workers fork), not pickled
             # through a pipe: that took a third of the main process's CPU time.
-            slot_len = TASK_UNITS * max(4 * (u[2][3] + 2 * border) * (u[2][2] + 2 * border) for u in units)
+            slot_len = TASK_UNITS * 4 * (max_tile[1] + 2 * border) * (max_tile[0] + 2 * border)
             n_slots = IN_FLIGHT * workers
             _FORK_SLOTS = np.frombuffer(mmap.mmap(-1, n_slots * slot_len * 8), np.float64).reshape(n_slots, slot_len)
             free.extend(range(n_slots))
+        _ACTIVE_POOLS.add(pool)
         try:
             pending: deque = deque()
             k = TASK_UNITS if forked else 1
-            todo = iter([units[i:i + k] for i in range(0, len(units), k)])
 
             def submit() -> None:
-                b = next(todo, None)
-                if b is None:
+                b = list(itertools.islice(units, k))
+                if not b:
                     return
                 if forked:
                     slot = free.popleft()
@@ -262,7 +345,11 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
                 submit()
             while pending and not halt.is_set():
                 b, slot, fut = pending.popleft()
-                res = fut.result()
+                try:
+                    res = fut.result()
+                except BrokenProcessPool:
+                    raise BrdflabError("a render worker process died unexpectedly (killed by the system, "
+                                       "perhaps out of memory); no image written") from None
                 if forked:
                     for u, (off, n, dropped, rays, secs) in zip(b, res, strict=True):
                         x0, y0, w, h = u[2]
@@ -270,14 +357,26 @@ def _results(scene, units: list[tuple], seed: int, workers: int, halt: threading
                         data = _FORK_SLOTS[slot, off:off + shape[0] * shape[1] * shape[2]].reshape(shape)
                         # The consumer adds the tile before asking for the next one; the slot is reused
                         # only after the whole task has been consumed.
-                        yield Film(cam.width, cam.height, scene.filter, x0, y0, w, h, data), n, dropped, rays, secs
+                        film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h, data)
+                        yield film, n, dropped, rays, secs
                     free.append(slot)
                 else:
                     yield (*res, 0, 0.0)
                 submit()
+        except GeneratorExit:  # the caller stopped early (stop request, time limit): running tasks finish
+            raise
+        except BaseException:
+            # An error or a KeyboardInterrupt: the queued and running units are of no use; end the
+            # workers now instead of waiting for their tasks.
+            if forked:
+                kill_workers()
+            raise
         finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-            _FORK_SCENE = _FORK_SLOTS = None
+            try:
+                pool.shutdown(wait=True, cancel_futures=True)
+            finally:
+                _ACTIVE_POOLS.discard(pool)
+                _FORK_SCENE = _FORK_SLOTS = None
 
 
 class ForkPool:
@@ -287,7 +386,7 @@ class ForkPool:
     def __init__(self, workers: int | None = None) -> None:
         self.workers = workers or os.cpu_count() or 1
 
-    def results(self, scene, units: list[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
+    def results(self, scene, units: Iterable[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
         """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``."""
         return _results(scene, units, seed, self.workers, halt)
 
@@ -348,22 +447,44 @@ def render(
     tune_allocator()
     spp = scene.spp if spp is None else spp
     seed = scene.seed if seed is None else seed
+    if not 0 <= seed < 2**64:
+        raise BrdflabError(f"the seed must be an integer in [0, 2^64), got {clean(seed, 30)}")
+    if spp < 1:
+        raise BrdflabError(f"spp must be at least 1, got {spp}")
+    if cluster is None and workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise BrdflabError(f"workers must be between 1 and {MAX_WORKERS}, got {workers}")
     executor = ForkPool(workers) if cluster is None else _cluster_executor(cluster)
     workers = executor.workers
     cam = scene.camera
-    film = Film(cam.width, cam.height, scene.filter)
-    units = []
     if progressive is None:
         progressive = on_pass is not None or bool(checkpoints) or time_limit is not None
-    sizes = pass_schedule(spp, max_pass=16 if progressive else BATCH_PASS, checkpoints=checkpoints,
-                          progressive=progressive)
-    for p, size in enumerate(sizes):
-        for t, tile in enumerate(tiles_for(cam.width, cam.height, size)):
-            units.append((p, t, tile, size))
-    pass_last = {}
-    for i, (p, _, _, _) in enumerate(units):
-        pass_last[p] = i
-    total = sum(u[2][2] * u[2][3] * u[3] for u in units)
+    sizes = iter_passes(spp, max_pass=16 if progressive else BATCH_PASS, checkpoints=checkpoints,
+                        progressive=progressive)
+    pass_sizes: list[int] = []
+
+    def size_of(p: int) -> int:
+        """Size of pass ``p`` (0 past the last), drawn from the lazy schedule as needed."""
+        while len(pass_sizes) <= p:
+            s = next(sizes, None)
+            if s is None:
+                return 0
+            pass_sizes.append(s)
+        return pass_sizes[p]
+
+    local = workers if cluster is None else 1  # a cluster's workers use their own machines' memory
+    check_memory(render_memory(cam.width, cam.height, scene.filter, local, max_tile_size(cam.width, cam.height)),
+                 f"a {cam.width}×{cam.height} render with {local} worker{'s' if local > 1 else ''}")
+    film = Film(cam.width, cam.height, scene.filter)
+
+    def unit_stream() -> Iterator[tuple]:
+        p = 0
+        while size := size_of(p):
+            tiles = tiles_for(cam.width, cam.height, size)
+            for t, tile in enumerate(tiles):
+                yield p, t, tile, size, t == len(tiles) - 1
+            p += 1
+
+    total = spp * cam.width * cam.height
     stats = RenderStats(workers=workers)
     geo = scene.geometry
     geo.stats.reset()
@@ -373,8 +494,11 @@ def render(
     halt = threading.Event()
     worker_rays, worker_seconds = 0, 0.0
     pass_film = Film(cam.width, cam.height, scene.filter)
-    results = executor.results(scene, units, seed, halt)
-    for i, (tile_film, n, dropped, rays, secs) in enumerate(results):
+    # The executor consumes the lazy unit stream a few tasks ahead; the loop below walks a copy of it
+    # (itertools.tee keeps only the units in between) to know which unit each result belongs to.
+    ahead, behind = itertools.tee(unit_stream())
+    results = executor.results(scene, (u[:4] for u in ahead), seed, halt)
+    for (tile_film, n, dropped, rays, secs), unit in zip(results, behind, strict=False):
         if stop is not None and stop.is_set():
             halt.set()  # keep only the completed passes; running units finish and are discarded
             break
@@ -388,16 +512,16 @@ def render(
         stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
         if progress is not None:
             progress(done_samples / total, stats)
-        p = units[i][0]
-        if i == pass_last[p]:
+        p, _, _, size, last = unit
+        if last:
             film.data += pass_film.data
             pass_film.data[:] = 0.0
-            done_spp += units[i][3]
+            done_spp += size
             stats.spp = done_spp
             stats.checkpoints.append((done_spp, stats.seconds))
             if on_pass is not None:
                 on_pass(done_spp, stats.seconds, film)
-            nxt = sizes[p + 1] if p + 1 < len(sizes) else 0
+            nxt = size_of(p + 1)
             over_time = (time_limit is not None and nxt
                          and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
             if (stop is not None and stop.is_set()) or over_time:

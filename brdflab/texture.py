@@ -149,7 +149,8 @@ class CheckerTexture(Texture):
     def from_properties(cls, props: PropertyList) -> CheckerTexture:
         """Build from a ``<texture type="checker">`` property list."""
         props.check_known(cls.KNOWN)
-        return cls(props.get_int("scalex", 1), props.get_int("scaley", 1))
+        # Beyond 2^31 squares the pattern aliases to noise and u·scale leaves the int64 range.
+        return cls(props.int_in_range("scalex", 1, -(2**31), 2**31), props.int_in_range("scaley", 1, -(2**31), 2**31))
 
     def eval(self, uv: np.ndarray) -> np.ndarray:
         """Return 0.9 or 0.1 grey per uv (C-style truncation and remainder)."""

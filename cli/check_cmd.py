@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError
 
 
@@ -16,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Compare one or more renders of SCENE (different seeds) with brdflab's own independent "
         "estimate, block by block and for the image mean, with a family-wise false-alarm level. Exit status: "
         "0 consistent, 1 biased, 2 usage error.")
-    p.add_argument("renders", type=Path, nargs="+", metavar="RENDER.exr")
+    p.add_argument("renders", type=Path, nargs="+", metavar="RENDER.exr", help="your render(s) of the scene (EXR)")
     p.add_argument("--scene", type=Path, required=True, help="the Nori scene the renders show")
     p.add_argument("--integrator", help="brdflab integrator of the estimate (default: the scene's; NAME or "
                    "NAME:VARIANT, e.g. direct_mis:power)")
@@ -30,8 +31,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "at this spp is a lower bound of the variance used")
     p.add_argument("--block", type=int, default=16, help="block side in pixels (default 16)")
     p.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm level (default 0.01)")
-    p.add_argument("--seed", type=int, default=0, help="base seed of brdflab's runs")
-    p.add_argument("--workers", type=int)
+    p.add_argument("--seed", type=seed, default=0, help="base seed of brdflab's runs, in [0, 2^64)")
+    p.add_argument("--workers", type=count(1, 256), help="worker processes (default: all cores)")
     p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
                    "check-<stem>/ beside the first render)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")

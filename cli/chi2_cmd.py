@@ -6,6 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from brdflab.cli.argtypes import count
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
+
 from .options import add_bsdf_options, bsdf_spec_from_args, load_plugins
 
 
@@ -20,7 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "alpha parameter) and θ ∈ {0, 30, 60, 80, 89}°. Exit status 1 if a test fails.")
     add_bsdf_options(p)
     p.add_argument("--warp", choices=list(WARPS) + list(POINT_WARPS), help="test a warp instead of a BSDF")
-    p.add_argument("--samples", type=int, default=100_000, help="samples per test (default 100000)")
+    p.add_argument("--samples", type=count(1000), default=100_000,
+                   help="samples per test, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/chi2_<name>)")
     p.set_defaults(func=run, parser=p)
@@ -46,9 +50,13 @@ def run(args: argparse.Namespace) -> int:
     bat = run_battery(n=args.samples, bsdfs=[name] if args.bsdf else [],
                       warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
                       thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print)
-    out = args.output or Path("reports") / f"chi2_{name.replace('/', '_')}"
+    out = args.output or DEFAULT_REPORTS / f"chi2_{name.replace('/', '_')}"
+    parent_created = output_folder(out.parent) if args.output else False
+    output_folder(out)
     path = write_validation_report(bat, out, title=f"brdflab chi-square: {name}")
-    write_index(out.parent)
+    root = index_root(out, args.output is not None, parent_created)
+    if root is not None:
+        write_index(root)
     print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES") + f"; report: {path}")
     for f in bat.failures():
         print("  " + f, file=sys.stderr)

@@ -6,6 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
+from brdflab.errors import BrdflabError, clean
+from brdflab.outputs import check_not_inputs
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``compare`` sub-command."""
@@ -14,7 +17,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "mean, per channel and overall; non-finite pixels are counted and excluded.")
     p.add_argument("test", type=Path, help="the image to evaluate (EXR)")
     p.add_argument("reference", type=Path, help="the reference image (EXR)")
-    p.add_argument("--heatmap", type=Path, metavar="OUT.png", help="write a log-scale error heatmap")
+    p.add_argument("--heatmap", type=Path, metavar="OUT.png",
+                   help="write a log-scale error heatmap (.png or .svg; .png is added to a name without suffix)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     p.set_defaults(func=run)
 
@@ -25,13 +29,20 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.imageio import read_exr
     from brdflab.report.metrics import compare, write_heatmap
 
+    heatmap = args.heatmap
+    if heatmap is not None:
+        if not heatmap.suffix:
+            heatmap = heatmap.with_name(heatmap.name + ".png")
+        if heatmap.suffix.lower() not in (".png", ".svg"):
+            raise BrdflabError(f"--heatmap '{clean(heatmap, 100)}': expected a .png or .svg file name")
+        check_not_inputs([heatmap], [args.test, args.reference])
     test, ref = read_exr(args.test), read_exr(args.reference)
     try:
         m = compare(test, ref)
     except ImageError as exc:
-        raise ImageError(f"{args.test} vs {args.reference}: {exc.message}") from None
-    if args.heatmap:
-        write_heatmap(args.heatmap, test, ref, title=f"{args.test.name} vs {args.reference.name}")
+        raise ImageError(f"{clean(args.test, 100)} vs {clean(args.reference, 100)}: {exc.message}") from None
+    if heatmap is not None:
+        write_heatmap(heatmap, test, ref, title=f"{clean(args.test.name)} vs {clean(args.reference.name)}")
     if args.json:
         print(json.dumps(m.to_dict(), indent=2))
     else:

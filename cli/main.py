@@ -5,16 +5,37 @@ Sub-commands live in ``cli/<name>_cmd.py`` modules (installed as ``brdflab.cli.<
 returning an exit status).
 User errors (:class:`brdflab.errors.BrdflabError`) are printed as one line without a traceback and give
 exit status 2; ``--debug`` shows the traceback.
+
+Exit status (:data:`EXIT_STATUS`, also in the README):
+
+=====  ==================================================================================
+0      success
+1      a check failed (``chi2``, ``validate``: a test did not pass)
+2      usage error or bad input (scene, mesh, image, option value, resource limit)
+129    interrupted by SIGHUP
+130    interrupted by Ctrl-C (SIGINT)
+141    the output pipe was closed (``brdflab compare … | head -1``)
+143    interrupted by SIGTERM
+=====  ==================================================================================
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
+import warnings
 
 from brdflab import __version__
-from brdflab.errors import BrdflabError
+from brdflab.cli.signals import exit_status, install_default_handlers
+from brdflab.errors import EXIT_USAGE, MESSAGE_CHARS, BrdflabError, Interrupted, clean
+
+EXIT_BROKEN_PIPE = 141
+#: Exit statuses of the command.
+EXIT_STATUS = {0: "success", 1: "a check failed", 2: "usage error or bad input", 129: "SIGHUP",
+               130: "Ctrl-C (SIGINT)", 141: "output pipe closed", 143: "SIGTERM"}
 
 #: Sub-command modules, in the order they appear in ``--help``. Missing modules are skipped.
 COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot")
@@ -47,20 +68,57 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Every warning as one short line (``brdflab: warning: …``), control characters escaped; NumPy's
+    floating-point warnings (which have no location in the user's input) are named as such."""
+    text = str(message)
+    if issubclass(category, RuntimeWarning) and "encountered" in text:
+        text = f"numerical problem ({text}); the result may contain non-finite values"
+    try:
+        print(f"brdflab: warning: {clean(text, MESSAGE_CHARS)}", file=sys.stderr)
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the ``brdflab`` command; return the process exit status."""
+    """Run the ``brdflab`` command; return the process exit status (see :data:`EXIT_STATUS`)."""
+    install_default_handlers()
     parser = build_parser()
     args = parser.parse_args(argv)
+    debug = getattr(args, "debug", False)
+    previous_show = warnings.showwarning
+    warnings.showwarning = _show_warning
     try:
         status = args.func(args)
+        sys.stdout.flush()  # a closed pipe is noticed here, not in the interpreter's final flush
     except BrdflabError as exc:
-        if args.debug:
+        if debug:
             raise
         print(f"brdflab: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except Interrupted as exc:
+        print(f"brdflab: {exc.message} ({signal.Signals(exc.signum).name})", file=sys.stderr)
+        return exit_status(exc.signum)
     except KeyboardInterrupt:
         print("brdflab: interrupted", file=sys.stderr)
-        return 130
+        return exit_status(signal.SIGINT)
+    except BrokenPipeError:
+        # The reader of our output went away (``brdflab compare … | head -1``): stop quietly. Point stdout at
+        # /dev/null so that the interpreter's final flush does not raise again.
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return EXIT_BROKEN_PIPE
+    except MemoryError:
+        if debug:
+            raise
+        print("brdflab: error: out of memory (lower the resolution, spp or workers, or see BRDFLAB_MEMORY_LIMIT_GB)",
+              file=sys.stderr)
+        return EXIT_USAGE
+    finally:
+        warnings.showwarning = previous_show
     return int(status or 0)
 
 

@@ -10,6 +10,8 @@ import math
 
 from brdflab.errors import BrdflabError
 
+from .argtypes import number
+
 
 def add_plugin_option(p: argparse.ArgumentParser) -> None:
     """``--plugin FILE|module[:Class]`` (repeatable): users' BSDFs for scenes and ``--bsdf``."""
@@ -34,9 +36,9 @@ def add_bsdf_options(p: argparse.ArgumentParser, required: bool = False, repeat:
     p.add_argument("--param", action="append", default=[], metavar="K=V",
                    help="BSDF parameter named as in scene files, e.g. R0=0.9 or R0=0.9,0.8,0.7 or intIOR=1.33 "
                    "(repeatable; converted by the parameter's type)")
-    p.add_argument("--alpha", type=float, action="append", metavar="A",
+    p.add_argument("--alpha", type=number(0.0, open_lo=True), action="append", metavar="A",
                    help="roughness α > 0 (repeatable; only for a BSDF with an alpha parameter)")
-    p.add_argument("--theta", type=float, action="append", metavar="DEG",
+    p.add_argument("--theta", type=number(0.0, 90.0, open_hi=True), action="append", metavar="DEG",
                    help="incident angle θ_i in degrees, in [0, 90) (repeatable)")
     add_plugin_option(p)
 

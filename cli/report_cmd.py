@@ -6,25 +6,29 @@ import argparse
 import sys
 from pathlib import Path
 
-from brdflab.errors import BrdflabError
+from brdflab.cli.argtypes import count, seed
+from brdflab.errors import BrdflabError, clean
+from brdflab.outputs import DEFAULT_REPORTS, check_not_inputs, index_root, output_folder
 
 from .options import add_plugin_option, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` sub-command."""
+    from brdflab.render import MAX_WORKERS
+
     p = sub.add_parser("report", help="compare integrators: error against run time, HTML report",
                        description="Render SCENE with each integrator progressively up to the largest spp, measure "
                        "the error of every checkpoint against a reference, and write CSV/JSON, plots, figures "
                        "and a self-contained report.html.")
-    p.add_argument("scene", type=Path)
+    p.add_argument("scene", type=Path, help="Nori scene XML file")
     p.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis",
                    help="comma-separated integrators (default: direct_ems,direct_mats,direct_mis)")
     p.add_argument("--spp", default="1,4,16,64,256", help="comma-separated sample counts (default: 1,4,16,64,256)")
     p.add_argument("--ref", type=Path, help="reference EXR (default: a high-spp direct_mis render made first)")
-    p.add_argument("--ref-spp", type=int, help="spp of the self-made reference (default: 4 × the largest spp)")
-    p.add_argument("--workers", type=int)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--ref-spp", type=count(1), help="spp of the self-made reference (default: 4 × the largest spp)")
+    p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^64) (default 0)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
     add_plugin_option(p)
     p.set_defaults(func=run)
@@ -34,9 +38,9 @@ def _ints(text: str, what: str) -> list[int]:
     try:
         values = [int(t) for t in text.split(",") if t.strip()]
     except ValueError:
-        raise BrdflabError(f"{what}: expected comma-separated integers, got '{text}'") from None
+        raise BrdflabError(f"{what}: expected comma-separated integers, got '{clean(text)}'") from None
     if not values or min(values) < 1:
-        raise BrdflabError(f"{what}: sample counts must be positive, got '{text}'")
+        raise BrdflabError(f"{what}: sample counts must be positive, got '{clean(text)}'")
     return values
 
 
@@ -50,13 +54,21 @@ def run(args: argparse.Namespace) -> int:
     integrators = [t.strip() for t in args.integrators.split(",") if t.strip()]
     for name in integrators:
         if name not in PLUGINS["integrator"]:
-            raise BrdflabError(f"unknown integrator '{name}'; valid: {', '.join(PLUGINS['integrator'])}")
+            raise BrdflabError(f"unknown integrator '{clean(name)}'; valid: {', '.join(PLUGINS['integrator'])}")
     spp = _ints(args.spp, "--spp")
-    out = args.output or Path("reports") / args.scene.stem
+    out = args.output or DEFAULT_REPORTS / args.scene.stem
+    parent_created = output_folder(out.parent) if args.output else False
+    output_folder(out)
+    stem = args.scene.stem
+    written = [out / "report.html", out / f"{stem}_reference.png"]
+    written += [out / f"{stem}_{n}_{s}spp{ext}" for n in integrators for s in spp for ext in (".exr", ".png")]
+    check_not_inputs(written, [args.scene, *([args.ref] if args.ref else [])])
     study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
                       progress=lambda msg: print(msg, file=sys.stderr))
     path = write_report(study, out)
-    write_index(out.parent)
+    root = index_root(out, args.output is not None, parent_created)
+    if root is not None:
+        write_index(root)
     for line in summary(study):
         print(line)
     print(f"wrote {path}", file=sys.stderr)

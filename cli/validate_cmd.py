@@ -6,6 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from brdflab.cli.argtypes import count
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
+
 from .options import add_bsdf_options, bsdf_spec_from_args, load_plugins
 
 
@@ -15,8 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="All warps and BSDFs over α ∈ {1e-3 … 1} and θ_i ∈ {0 … 89°}; console verdicts "
                        "and an HTML report. Exit status 1 if anything fails.")
     add_bsdf_options(p, repeat=True)
-    p.add_argument("--samples", type=int, default=200_000, help="samples per chi-square test (default 200000)")
-    p.add_argument("-o", "--output", type=Path, default=Path("reports/validation"))
+    p.add_argument("--samples", type=count(1000), default=200_000,
+                   help="samples per chi-square test, at least 1000 (default 200000)")
+    p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
     p.set_defaults(func=run)
 
 
@@ -27,6 +31,9 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.report.validation import write_validation_report
     from brdflab.validate.battery import ALPHAS, THETAS, run_battery
 
+    out = args.output or DEFAULT_REPORTS / "validation"
+    parent_created = output_folder(out.parent) if args.output else False
+    output_folder(out)
     load_plugins(args)
     if args.bsdf:  # the whole battery on these BSDFs only (no warps)
         specs = [bsdf_spec_from_args(args, name) for name in args.bsdf]
@@ -39,8 +46,10 @@ def run(args: argparse.Namespace) -> int:
         if args.param or args.alpha or args.theta:
             raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
         bat = run_battery(n=args.samples, progress=print)
-    path = write_validation_report(bat, args.output)
-    write_index(args.output.parent)
+    path = write_validation_report(bat, out)
+    root = index_root(out, args.output is not None, parent_created)
+    if root is not None:
+        write_index(root)
     print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES") + f"; report: {path}")
     for f in bat.failures():
         print("  " + f, file=sys.stderr)

@@ -39,6 +39,9 @@ def test_cli_error(path, tmp_path, capsys):
     assert main(["render", str(path), "-o", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("brdflab: error: ") and "Traceback" not in err
+    # One short line, with no raw control character from the file (ESC, BEL, NUL are escaped).
+    assert err.count("\n") == 1 and len(err) <= 320, err
+    assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", err), repr(err)
     expect, line = _header(path)
     assert re.search(expect, err)
     if line is not None:
@@ -53,5 +56,11 @@ def test_catalogue_is_complete():
                      "wrong_property_type", "unparsable_number", "triple_wrong_count", "negative_radiance",
                      "fov_zero", "width_zero", "absurd_resolution", "sample_count_zero", "missing_obj",
                      "obj_index_out_of_range", "obj_zero_index", "obj_two_vertex_face", "obj_nonfinite",
-                     "zero_area_emitter", "duplicate_camera", "duplicate_integrator", "degenerate_lookat"]:
+                     "zero_area_emitter", "duplicate_camera", "duplicate_integrator", "degenerate_lookat",
+                     # Hardening (issue 18): XML attacks, extreme numbers, hostile meshes, leaking messages.
+                     "deep_nesting", "huge_attribute", "integer_overflow", "checker_scale_huge",
+                     "gaussian_stddev_tiny", "mitchell_nan", "filter_radius_huge", "filter_radius_tiny",
+                     "emitter_scale_overflow", "radiance_overflow", "obj_beyond_float32", "transform_beyond_float32",
+                     "lookat_text", "obj_index_overflow", "obj_float_overflow", "obj_control_chars", "obj_long_line",
+                     "mesh_is_directory", "mesh_name_too_long"]:
         assert required in names

@@ -55,4 +55,5 @@ def test_write_images_raises_when_the_png_cannot_be_written(tmp_path):
     img = np.zeros((4, 4, 3), np.float32)
     with pytest.raises(ImageError):
         write_images(tmp_path / "a.exr", blocker / "a.png", img)
-    assert (tmp_path / "a.exr").is_file()  # the other image is complete, not half-written
+    # The pair is replaced together or not at all (issue 18): no EXR without its PNG, no temporary left.
+    assert not (tmp_path / "a.exr").exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

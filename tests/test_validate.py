@@ -121,8 +121,11 @@ def test_cli_chi2_and_validate_reports(tmp_path, capsys):
     text = (out / "index.html").read_text()
     assert "roughconductor" in text and "pass" in text and "data:image/png;base64" in text
     assert main(["chi2", "--warp", "beckmann", "--alpha", "0.01", "--samples", "20000", "-o", str(tmp_path / "w")]) == 0
-    assert main(["chi2", "--bsdf", "roughconductor", "--alpha", "-1"]) == 2
-    assert "alpha must be > 0" in capsys.readouterr().err
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:  # a usage error (argparse): exit status 2, one line
+        main(["chi2", "--bsdf", "roughconductor", "--alpha", "-1"])
+    assert exc.value.code == 2
+    assert "--alpha: must be a finite number > 0, got -1" in capsys.readouterr().err
 
 
 def test_battery_small_full_run(tmp_path):

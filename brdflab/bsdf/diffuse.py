@@ -36,7 +36,7 @@ class Diffuse(BSDF):
     def from_properties(cls, props: PropertyList) -> Diffuse:
         """Build from a ``<bsdf type="diffuse">`` property list."""
         props.check_known(cls.KNOWN)
-        return cls(props.nonnegative_color("albedo", np.full(3, 0.5)))
+        return cls(props.reflectance("albedo", np.full(3, 0.5)))
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """f = albedo/π where both directions are above the surface."""

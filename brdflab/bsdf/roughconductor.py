@@ -79,7 +79,7 @@ class RoughConductor(BSDF):
     def from_properties(cls, props: PropertyList) -> RoughConductor:
         """Build from a ``<bsdf type="roughconductor">`` property list."""
         props.check_known(cls.KNOWN)
-        return cls(props.nonnegative_color("R0", np.full(3, 0.5)), check_alpha(props))
+        return cls(props.reflectance("R0", np.full(3, 0.5)), check_alpha(props))
 
     @property
     def alpha_value(self) -> float:

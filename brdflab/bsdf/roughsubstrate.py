@@ -71,7 +71,7 @@ class RoughSubstrate(BSDF):
     def from_properties(cls, props: PropertyList) -> RoughSubstrate:
         """Build from a ``<bsdf type="roughsubstrate">`` property list."""
         props.check_known(cls.KNOWN)
-        return cls(props.nonnegative_color("kd", np.full(3, 0.5)), check_alpha(props),
+        return cls(props.reflectance("kd", np.full(3, 0.5)), check_alpha(props),
                    props.positive_float("intIOR", 1.5046), props.positive_float("extIOR", 1.000277))
 
     def scalar_parameters(self) -> tuple:

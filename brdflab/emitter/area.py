@@ -29,7 +29,7 @@ from brdflab.emitter.base import Emitter, EmitterSample
 from brdflab.math.distribution import AliasTable
 from brdflab.math.frame import dot, sparse_combination
 from brdflab.scene.geometry import interp_cols
-from brdflab.scene.properties import PropertyList
+from brdflab.scene.properties import MAX_COMPONENT, PropertyList
 from brdflab.texture import LUMINANCE, Texture, as_texture
 
 
@@ -58,7 +58,11 @@ class AreaEmitter(Emitter):
         """Build from an ``<emitter type="area">`` property list."""
         props.check_known(cls.KNOWN)
         scale = props.positive_float("scale", 1.0, allow_zero=True)
-        return cls(props.nonnegative_color("radiance", np.ones(3)), scale)
+        radiance = props.nonnegative_color("radiance", np.ones(3))
+        if np.any(radiance * scale > MAX_COMPONENT):
+            raise props.error("scale", f"'scale' × 'radiance' = {(radiance * scale).tolist()} overflows the float32 "
+                              f"image (at most {MAX_COMPONENT:g})")
+        return cls(radiance, scale)
 
     def set_texture(self, slot: str, texture: Texture) -> None:
         """Attach the ``radiance`` texture."""

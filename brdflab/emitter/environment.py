@@ -37,7 +37,8 @@ import numpy as np
 
 from brdflab.emitter.area import LUMINANCE
 from brdflab.emitter.base import Emitter, EmitterSample
-from brdflab.errors import ImageError, SceneError
+from brdflab.errors import BrdflabError, SceneError, quoted
+from brdflab.limits import check_memory
 from brdflab.math.distribution import Distribution2D
 from brdflab.math.frame import stack_cols
 from brdflab.scene.properties import PropertyList
@@ -91,20 +92,24 @@ class EnvironmentEmitter(Emitter):
     @classmethod
     def from_properties(cls, props: PropertyList, resolve_path) -> EnvironmentEmitter:
         """Build from an ``<emitter type="environment">``; ``resolve_path(name)`` finds the map file."""
-        from brdflab.imageio import read_exr
+        from brdflab.imageio import exr_size, read_exr
 
         props.check_known(cls.KNOWN)
         radiance = props.nonnegative_color("radiance", np.ones(3))
-        rotate = props.get_float("rotate", 0.0)
+        rotate = props.finite_float("rotate", 0.0)
         name = props.get_string("filename", "")
         image = None
         if name and name != "null":
             path = resolve_path(name)
             if path is None:
-                raise props.error("filename", f"environment map '{name}' not found")
+                raise props.error("filename", f"environment map {quoted(name)} not found")
             try:
+                width, height = exr_size(path)
+                # The float64 texels, their scaled and padded copies, the per-channel planes, the luminance
+                # and corner sums and the 2-D sampling distribution: about 160 bytes per texel.
+                check_memory(160 * width * height, f"the {width}×{height} environment map {quoted(name)}")
                 image = read_exr(path)
-            except ImageError as exc:
+            except BrdflabError as exc:
                 raise SceneError(f"environment map: {exc}", *props.where("filename")) from None
         return cls(image, radiance, rotate)
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from brdflab.bsdf.base import BSDF
 from brdflab.emitter.base import Emitter
-from brdflab.errors import BrdflabError, SceneError
+from brdflab.errors import BrdflabError, SceneError, clean, quoted
 from brdflab.film import Camera, Filter
 from brdflab.math.transform import Transform
 from brdflab.plugins import BUILTIN, UNSUPPORTED, build_bsdf, plugin_class  # noqa: F401 (re-exported)
@@ -66,6 +66,8 @@ class Scene:
     ``"bvh"`` (the Embree build alone) and ``"total"`` (the whole :func:`load_scene`)."""
     source_digest: str = ""
     """SHA-256 of the scene file as loaded (cluster workers loading the file themselves must match it)."""
+    #: Every file the scene was read from (the XML, its meshes, the environment map): outputs must differ.
+    inputs: list[Path] = field(default_factory=list)
 
     def set_emitter_selection(self, mode: str = "uniform") -> None:
         """Choose emitters uniformly (Nori's rule, default) or proportionally to their power."""
@@ -85,10 +87,17 @@ class Scene:
 
 
 def resolve_path(scene_dir: Path, name: str) -> Path | None:
-    """Resolve a file name as Nori does (scene folder, then working directory, then as given)."""
+    """Resolve a file name as Nori does (scene folder, then working directory, then as given).
+
+    The first candidate that exists is returned even if it is not a regular file, so that the reader
+    can say what it is (a directory, a FIFO); names the file system cannot take are never found.
+    """
     for cand in (scene_dir / name, Path.cwd() / name, Path(name)):
-        if cand.is_file():
-            return cand
+        try:
+            if cand.exists():
+                return cand
+        except (OSError, ValueError):  # name too long, NUL byte
+            continue
     return None
 
 
@@ -99,10 +108,10 @@ def _attach_textures(obj: object, spec: ObjectSpec) -> None:
             raise child.error(f"{spec.label} cannot contain <{child.tag}>; it accepts only <texture> children "
                               f"named {', '.join(slots) or '(none)'}")
         if child.name not in slots:
-            raise child.error(f'texture name "{child.name}" is not a slot of {spec.label}; valid names: '
+            raise child.error(f'texture name "{clean(child.name)}" is not a slot of {spec.label}; valid names: '
                               f"{', '.join(slots) or 'none'}")
         if child.type != "checker":
-            raise child.error(f'unknown texture type "{child.type}"; valid types: checker')
+            raise child.error(f'unknown texture type "{clean(child.type)}"; valid types: checker')
         obj.set_texture(child.name, CheckerTexture.from_properties(child.props))
 
 
@@ -146,6 +155,14 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     integrator_override = integrator or integrator_override
     path = Path(path)
     root = parse_scene_file(path)
+    inputs = [path]
+
+    def resolve(name: str) -> Path | None:
+        found = resolve_path(scene_dir, name)
+        if found is not None:
+            inputs.append(found)
+        return found
+
     root.props.check_known({})
     scene_dir = path.parent
     camera_spec = integrator_spec = sampler_spec = None
@@ -192,7 +209,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
 
     # Camera and filter.
     if camera_spec.type != "perspective":
-        raise camera_spec.error(f'unknown camera type "{camera_spec.type}"; valid types: perspective')
+        raise camera_spec.error(f'unknown camera type "{clean(camera_spec.type)}"; valid types: perspective')
     for key, value in (("width", width), ("height", height)):
         if value is not None:
             camera_spec.props.set(key, "integer", _positive_int(key, value))
@@ -202,7 +219,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         if c.tag != "rfilter":
             raise c.error(f"<camera> cannot contain <{c.tag}>; it accepts one <rfilter>")
         if c.type not in Filter.KNOWN:
-            raise c.error(f'unknown rfilter type "{c.type}"; valid types: {", ".join(Filter.KNOWN)}')
+            raise c.error(f'unknown rfilter type "{clean(c.type)}"; valid types: {", ".join(Filter.KNOWN)}')
         if len([x for x in camera_spec.children if x.tag == "rfilter"]) > 1:
             raise c.error("<camera> accepts only one <rfilter>")
         _no_children(c)
@@ -213,7 +230,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     spp, seed = 1, 0
     if sampler_spec is not None:
         if sampler_spec.type != "independent":
-            raise sampler_spec.error(f'unknown sampler type "{sampler_spec.type}"; valid types: independent')
+            raise sampler_spec.error(f'unknown sampler type "{clean(sampler_spec.type)}"; valid types: independent')
         _no_children(sampler_spec)
         sampler_spec.props.check_known({"sampleCount": "integer", "seed": "integer"})
         spp = sampler_spec.props.get_int("sampleCount", 1)
@@ -233,7 +250,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         cls = plugin_class("emitter", spec.type, spec)
         _no_children(spec)
         if spec.type == "environment":
-            em = cls.from_properties(spec.props, lambda n: resolve_path(scene_dir, n))
+            em = cls.from_properties(spec.props, resolve)
             environment = em
         else:
             em = cls.from_properties(spec.props)
@@ -246,13 +263,13 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     obj_seconds = 0.0
     for spec in mesh_specs:
         if spec.type != "obj":
-            raise spec.error(f'unknown mesh type "{spec.type}"; valid types: obj')
+            raise spec.error(f'unknown mesh type "{clean(spec.type)}"; valid types: obj')
         spec.props.check_known({"filename": "string", "toWorld": "transform"})
         fname = spec.props.get_string("filename")
-        fpath = resolve_path(scene_dir, fname)
+        fpath = resolve(fname)
         if fpath is None:
-            raise spec.props.error("filename", f"mesh file '{fname}' not found (looked in {scene_dir} and "
-                                   "the working directory)")
+            raise spec.props.error("filename", f"mesh file {quoted(fname)} not found (looked in "
+                                   f"{clean(scene_dir)} and the working directory)")
         to_world = spec.props.get_transform("toWorld", Transform())
         t0 = time.perf_counter()
         mesh = load_obj(fpath, to_world)
@@ -267,7 +284,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
                 if em_spec is not None:
                     raise c.error("a <mesh> can have only one <emitter>")
                 if c.type != "area":
-                    raise c.error(f'<emitter type="{c.type}"> cannot be placed inside a <mesh>; only "area" can')
+                    raise c.error(f'<emitter type="{clean(c.type)}"> cannot be placed inside a <mesh>; only "area" can')
                 em_spec = c
             else:
                 raise c.error(f"<mesh> cannot contain <{c.tag}>; it accepts one <bsdf> and one <emitter>")
@@ -289,18 +306,23 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     for mesh_index, em, spec in area_emitters:
         em.attach(geometry, mesh_index)
         if not em.area > 0:
-            raise spec.error(f"area emitter on '{meshes[mesh_index].mesh.path}' has zero surface area")
+            raise spec.error(f"area emitter on {quoted(meshes[mesh_index].mesh.path)} has zero surface area")
+        if not np.isfinite(em.area):
+            raise spec.error(f"area emitter on {quoted(meshes[mesh_index].mesh.path)} has infinite surface area")
         meshes[mesh_index].emitter = len(emitters)
         emitters.append(em)
 
     scene = Scene(path, camera, filt, integrator, itype, spp, seed, bsdfs, emitters, meshes, geometry,
-                  environment)
+                  environment, inputs=inputs)
     scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
     scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
     scene.set_emitter_selection(emitter_selection or "uniform")
     scene.source_digest = hashlib.sha256(path.read_bytes()).hexdigest()
     if not emitters and getattr(integrator, "needs_emitters", False):
         warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
+    elif emitters and itype == "direct_mats" and all(e.is_delta for e in emitters):
+        warnings.warn(f"{path}: direct_mats samples the BSDF and can never hit point lights, the only emitters "
+                      "of this scene; the image will be black (use direct_ems or direct_mis)", stacklevel=2)
     scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
                      "total": time.perf_counter() - t_start}
     return scene

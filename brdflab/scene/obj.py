@@ -23,8 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.errors import MeshError
+from brdflab.errors import MeshError, clean, quoted
+from brdflab.limits import read_input
 from brdflab.math.transform import Transform
+
+#: Largest vertex coordinate accepted: Embree intersects in float32, whose products of two coordinates
+#: (edge cross products) must stay finite, so |x| ≤ 1e18 (1e36 < 3.4e38).
+MAX_COORDINATE = 1e18
 
 
 @dataclass
@@ -66,14 +71,15 @@ def _floats(path: Path, lines: list[str], linenos: list[int], width: int, what: 
     # Slow path: find the offending line (extra components such as 'vt u v w' are allowed).
     out = np.empty((len(lines), width))
     for i, (text, ln) in enumerate(zip(lines, linenos, strict=True)):
-        tok = text.split()
-        try:
-            if len(tok) < width:
-                raise ValueError
-            out[i] = [float(t) for t in tok[:width]]
-        except ValueError:
-            raise MeshError(f"'{what}' statement: expected {width} numbers, got '{text.strip()}'",
-                            path, ln) from None
+        tok = text.split(maxsplit=width)[:width]
+        if len(tok) < width:
+            raise MeshError(f"'{what}' statement: expected {width} numbers, got {len(tok)}", path, ln)
+        for j, t in enumerate(tok):
+            try:
+                out[i, j] = float(t)
+            except ValueError:
+                # Only the offending token is echoed, never the rest of the line.
+                raise MeshError(f"'{what}' statement: expected {width} numbers, got {quoted(t)}", path, ln) from None
     return out
 
 
@@ -130,22 +136,14 @@ def load_obj(path: str | Path, to_world: Transform | None = None) -> Mesh:
     and the error messages.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise MeshError("OBJ file not found", path) from None
-    except OSError as exc:
-        raise MeshError(f"cannot read OBJ file: {exc.strerror}", path) from None
+    data = read_input(path, "OBJ file", MeshError)
     st = _scan_fast(data)
     del data
     if st is not None:
         mesh = _assemble(path, st, to_world, report=False)
         if mesh is not None:
             return mesh
-    try:
-        text = path.read_text(errors="replace")
-    except OSError as exc:
-        raise MeshError(f"cannot read OBJ file: {exc.strerror}", path) from None
+    text = read_input(path, "OBJ file", MeshError).decode(errors="replace")
     return _assemble(path, _parse_general(path, text), to_world, report=True)
 
 
@@ -168,12 +166,12 @@ def _parse_general(path: Path, text: str) -> _Statements:
     counts = np.fromiter((len(s.split()) for s in flines), dtype=np.int64, count=len(flines))
     if counts.min() < 3:
         k = int(np.argmax(counts < 3))
-        raise MeshError(f"face needs at least 3 vertices, got {counts[k]}: 'f {flines[k].strip()}'",
+        raise MeshError(f"face needs at least 3 vertices, got {counts[k]}: {quoted('f ' + flines[k].strip())}",
                         path, fnos[k])
     tokens = " ".join(flines).split()
     nslash = tokens[0].count("/")
     if nslash > 2:
-        raise MeshError(f"bad face vertex '{tokens[0]}': expected p, p/t, p//n or p/t/n", path, fnos[0])
+        raise MeshError(f"bad face vertex {quoted(tokens[0])}: expected p, p/t, p//n or p/t/n", path, fnos[0])
     has_t = nslash >= 1 and "//" not in tokens[0]
     has_n = nslash == 2
     joined = " ".join(tokens)
@@ -182,7 +180,7 @@ def _parse_general(path: Path, text: str) -> _Statements:
             raise ValueError
         idx = np.array(joined.replace("//", "/0/").replace("/", " ").split(), dtype=np.int64)
         idx = idx.reshape(len(tokens), nslash + 1)
-    except ValueError:
+    except (ValueError, OverflowError):
         _raise_face_format(path, flines, fnos, nslash, "//" in tokens[0])
     deflines = {k: np.asarray(kinds[k][1], dtype=np.int64) for k in ("v", "vt", "vn")}
     return _Statements(pos, uv, nrm, deflines, np.asarray(fnos, dtype=np.int64), counts, idx, nslash, has_t,
@@ -195,11 +193,14 @@ def _assemble(path: Path, st: _Statements, to_world: Transform | None, report: b
     pos, uv, nrm, idx, counts, nslash, has_t, has_n = (st.pos, st.uv, st.nrm, st.idx, st.counts, st.nslash,
                                                        st.has_t, st.has_n)
     fnos = st.fnos
-    bad = ~np.isfinite(pos).all(axis=1)
+    bad = ~(np.abs(pos) <= MAX_COORDINATE).all(axis=1)
     if bad.any():
         if not report:
             return None
-        raise MeshError("vertex position is not finite", path, int(st.deflines["v"][int(np.argmax(bad))]))
+        k = int(np.argmax(bad))
+        what = "not finite" if not np.isfinite(pos[k]).all() else f"beyond ±{MAX_COORDINATE:g}"
+        raise MeshError(f"vertex position is {what} (the ray tracer works in float32)", path,
+                        int(st.deflines["v"][k]))
     if len(nrm) and not has_n:
         if not report:
             return None
@@ -234,7 +235,7 @@ def _assemble(path: Path, st: _Statements, to_world: Transform | None, report: b
             k = int(np.argmax(bad))
             if line_of_token is None:
                 line_of_token = np.repeat(fnos, counts)
-            raise MeshError(f"face references {name} {st.tokens[k].split('/')[col_index[name]]}, but only "
+            raise MeshError(f"face references {name} {clean(st.tokens[k].split('/')[col_index[name]])}, but only "
                             f"{n} are defined (indices are 1-based)", path, int(line_of_token[k]))
         c -= 1
 
@@ -276,7 +277,11 @@ def _assemble(path: Path, st: _Statements, to_world: Transform | None, report: b
     uvs = uv[vsel[:, 1]] if has_t else None
     normals = nrm[vsel[:, nslash]] if has_n else None
     if to_world is not None and not to_world.is_identity():
-        positions = to_world.apply_points(positions)
+        with np.errstate(all="ignore"):
+            positions = to_world.apply_points(positions)
+        if not (np.abs(positions) <= MAX_COORDINATE).all():
+            raise MeshError(f"'toWorld' moves vertices beyond ±{MAX_COORDINATE:g} (the ray tracer works in float32)",
+                            path)
         if normals is not None:
             normals = to_world.apply_normals(normals)
     if normals is not None:
@@ -431,15 +436,17 @@ def _raise_face_format(path: Path, flines: list[str], fnos: list[int], nslash: i
             parts = tok.split("/")
             form_ok = tok.count("/") == nslash and (("//" in tok) == double)
             try:
-                [int(p) for p in parts if p != ""]
+                numbers = [int(p) for p in parts if p != ""]
                 num_ok = True
             except ValueError:
                 num_ok = False
             if len(parts) > 3:
-                raise MeshError(f"bad face vertex '{tok}': more than three '/'-separated parts", path, ln)
+                raise MeshError(f"bad face vertex {quoted(tok)}: more than three '/'-separated parts", path, ln)
             if not num_ok:
-                raise MeshError(f"bad face vertex '{tok}': indices must be integers", path, ln)
+                raise MeshError(f"bad face vertex {quoted(tok)}: indices must be integers", path, ln)
+            if any(abs(n) >= 2**63 for n in numbers):
+                raise MeshError(f"face vertex {quoted(tok)}: index out of range", path, ln)
             if not form_ok:
-                raise MeshError(f"face vertex '{tok}' does not match the form '{first}' used by the first "
+                raise MeshError(f"face vertex {quoted(tok)} does not match the form '{first}' used by the first "
                                 "face; every face vertex must reference the same kinds of data", path, ln)
     raise MeshError("malformed face statements", path, fnos[0])

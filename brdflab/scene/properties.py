@@ -14,7 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from brdflab.errors import SceneError
+from brdflab.errors import SceneError, clean
+
+#: Largest colour component accepted: radiance times the filter weights must stay inside the float32 image.
+MAX_COMPONENT = 1e30
 
 _REQUIRED = object()
 
@@ -82,7 +85,7 @@ class PropertyList:
                     f"<{known[n]} name=\"{n}\">" if isinstance(known, dict) else n for n in names
                 ) or "none"
                 raise SceneError(
-                    f"{self.owner}: unknown property '{name}'{extra}; valid properties: {valid}",
+                    f"{self.owner}: unknown property '{clean(name)}'{extra}; valid properties: {valid}",
                     prop.file,
                     prop.line,
                 )
@@ -148,8 +151,43 @@ class PropertyList:
         return v
 
     def nonnegative_color(self, name: str, default: Any = _REQUIRED) -> np.ndarray:
-        """Return a ``<color>`` whose components must be finite and ≥ 0."""
+        """Return a ``<color>`` whose components must be finite, ≥ 0 and ≤ :data:`MAX_COMPONENT`."""
         c = self.get_color(name, default)
         if not np.all(np.isfinite(c)) or np.any(c < 0):
             raise self.error(name, f"'{name}' must have finite, non-negative components, got {c.tolist()}")
+        if np.any(c > MAX_COMPONENT):
+            raise self.error(name, f"'{name}' has components above {MAX_COMPONENT:g} (they overflow the float32 "
+                             f"image), got {c.tolist()}")
         return c
+
+    def reflectance(self, name: str, default: Any = _REQUIRED) -> np.ndarray:
+        """A non-negative ``<color>`` that should be ≤ 1: larger components are legal but create energy,
+        so they get a located warning."""
+        c = self.nonnegative_color(name, default)
+        if np.any(c > 1):
+            self.warn(name, f"'{name}' = {c.tolist()} has components above 1: the material reflects more light "
+                      "than it receives (it creates energy)")
+        return c
+
+    def finite_float(self, name: str, default: Any = _REQUIRED, lo: float = -np.inf, hi: float = np.inf) -> float:
+        """Return a ``<float>`` that must be finite and within [lo, hi]."""
+        v = self.get_float(name, default)
+        if not (np.isfinite(v) and lo <= v <= hi):
+            rng = "" if (lo == -np.inf and hi == np.inf) else f" in [{lo:g}, {hi:g}]"
+            raise self.error(name, f"'{name}' must be a finite number{rng}, got {v}")
+        return v
+
+    def int_in_range(self, name: str, default: Any, lo: int, hi: int) -> int:
+        """Return an ``<integer>`` that must be within [lo, hi]."""
+        v = self.get_int(name, default)
+        if not lo <= v <= hi:
+            raise self.error(name, f"'{name}' must be in [{lo:,}, {hi:,}], got {clean(v, 30)}")
+        return v
+
+    def warn(self, name: str | None, message: str) -> None:
+        """Issue a located :class:`UserWarning` about property ``name`` (or the owner)."""
+        import warnings
+
+        file, line = self.where(name) if name else (self.file, self.line)
+        loc = f"{file}:{line}: " if file and line else (f"{file}: " if file else "")
+        warnings.warn(f"{loc}{self.owner}: {message}", stacklevel=3)

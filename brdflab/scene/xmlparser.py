@@ -15,7 +15,8 @@ from xml.parsers import expat
 
 import numpy as np
 
-from brdflab.errors import SceneError
+from brdflab.errors import SceneError, clean, quoted
+from brdflab.limits import read_input
 from brdflab.math import transform as tf
 from brdflab.scene.properties import PropertyList
 
@@ -32,6 +33,13 @@ TRANSFORM_OPS = ("translate", "scale", "rotate", "matrix", "lookat")
 _INT_RE = re.compile(r"[+-]?\d+\Z")
 _FLOAT_RE = re.compile(r"\s*[+-]?(\d+\.?\d*([eE][+-]?\d+)?|\.\d+([eE][+-]?\d+)?|inf(inity)?|nan)\Z", re.I)
 _SPLIT_RE = re.compile(r"[,\s]+")
+#: Deepest element nesting accepted (Nori scenes need 5; 10 000-deep files must not exhaust the stack).
+MAX_DEPTH = 64
+#: Longest attribute value accepted (16 numbers of a <matrix> need a few hundred characters). Longer values
+#: are refused before any regular expression or message sees them.
+MAX_ATTRIBUTE = 4096
+#: Integer properties must fit a signed 64-bit integer.
+INT_LIMIT = 2**63
 
 
 @dataclass
@@ -49,7 +57,7 @@ class ObjectSpec:
     @property
     def label(self) -> str:
         """Human-readable label, e.g. ``<bsdf type="diffuse">``."""
-        return f'<{self.tag} type="{self.type}">' if self.type else f"<{self.tag}>"
+        return f'<{self.tag} type="{clean(self.type)}">' if self.type else f"<{self.tag}>"
 
     def error(self, message: str) -> SceneError:
         """A :class:`SceneError` located at this object's tag."""
@@ -67,18 +75,18 @@ class _Node:
 
 
 def _parse_tree(path: Path) -> _Node:
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise SceneError("scene file not found", path) from None
-    except OSError as exc:
-        raise SceneError(f"cannot read scene file: {exc.strerror}", path) from None
-
+    data = read_input(path, "scene file", SceneError)
     parser = expat.ParserCreate()
     stack: list[_Node] = []
     root: list[_Node] = []
 
     def start(tag: str, attrs: dict[str, str]) -> None:
+        if len(stack) >= MAX_DEPTH:
+            raise SceneError(f"elements nested more than {MAX_DEPTH} deep", path, parser.CurrentLineNumber)
+        for key, value in attrs.items():
+            if len(value) > MAX_ATTRIBUTE:
+                raise SceneError(f"<{quoted(tag)[1:-1]}> attribute {quoted(key)} is {len(value):,} characters long "
+                                 f"(at most {MAX_ATTRIBUTE:,} accepted)", path, parser.CurrentLineNumber)
         node = _Node(tag, dict(attrs), parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
         if stack:
             stack[-1].children.append(node)
@@ -120,7 +128,7 @@ def _require(path: Path, node: _Node, attr: str) -> str:
 
 def _parse_float(path: Path, node: _Node, text: str, what: str) -> float:
     if not _FLOAT_RE.match(text):
-        raise _err(path, node, f"{what}: expected a number, got '{text}'")
+        raise _err(path, node, f"{what}: expected a number, got {quoted(text)}")
     return float(text)
 
 
@@ -128,7 +136,7 @@ def parse_triple(path: Path, node: _Node, text: str, what: str) -> np.ndarray:
     """Parse exactly three numbers separated by commas and/or spaces (spec §2.4)."""
     tokens = [t for t in _SPLIT_RE.split(text.strip()) if t]
     if len(tokens) != 3:
-        raise _err(path, node, f"{what}: expected 3 numbers separated by commas or spaces, got '{text}'")
+        raise _err(path, node, f"{what}: expected 3 numbers separated by commas or spaces, got {quoted(text)}")
     return np.array([_parse_float(path, node, t, what) for t in tokens])
 
 
@@ -138,17 +146,20 @@ def _parse_value(path: Path, node: _Node) -> tuple[str, object]:
     if kind == "transform":
         return kind, _parse_transform(path, node)
     value = _require(path, node, "value")
-    what = f'<{kind} name="{name}">'
+    what = f'<{kind} name="{clean(name)}">'
     if kind == "integer":
         if not _INT_RE.match(value):
-            raise _err(path, node, f"{what}: expected a base-10 integer, got '{value}'")
-        return kind, int(value)
+            raise _err(path, node, f"{what}: expected a base-10 integer, got {quoted(value)}")
+        number = int(value)
+        if not -INT_LIMIT <= number < INT_LIMIT:
+            raise _err(path, node, f"{what}: integer {quoted(value, 30)} is out of range (|value| < 2^63)")
+        return kind, number
     if kind == "float":
         return kind, _parse_float(path, node, value, what)
     if kind == "boolean":
         low = value.lower()
         if low not in ("true", "false"):
-            raise _err(path, node, f"{what}: expected 'true' or 'false', got '{value}'")
+            raise _err(path, node, f"{what}: expected 'true' or 'false', got {quoted(value)}")
         return kind, low == "true"
     if kind == "string":
         return kind, value
@@ -163,6 +174,9 @@ def _parse_transform(path: Path, node: _Node) -> tf.Transform:
                        + ", ".join(f"<{t}>" for t in TRANSFORM_OPS))
         if op.children:
             raise _err(path, op.children[0], f"<{op.tag}> takes no child elements")
+        if op.text:
+            raise _err(path, op, f"unexpected text content {quoted(op.text, 30)} inside <{op.tag}>; "
+                       "its values go in attributes")
         if op.tag == "translate":
             mat = tf.translate(parse_triple(path, op, _require(path, op, "value"), "<translate>"))
         elif op.tag == "scale":
@@ -199,9 +213,9 @@ def _build(path: Path, node: _Node, is_root: bool) -> ObjectSpec:
     if not is_root and node.tag == "scene":
         raise _err(path, node, "<scene> can only be the root element")
     if node.text:
-        raise _err(path, node, f"unexpected text content '{node.text[:30]}' inside <{node.tag}>")
+        raise _err(path, node, f"unexpected text content {quoted(node.text, 30)} inside <{node.tag}>")
     typ = "" if node.tag == "scene" else _require(path, node, "type")
-    owner = f'<{node.tag} type="{typ}">' if typ else f"<{node.tag}>"
+    owner = f'<{node.tag} type="{clean(typ)}">' if typ else f"<{node.tag}>"
     props = PropertyList(owner, str(path), node.line)
     spec = ObjectSpec(node.tag, typ, node.attrs.get("name"), props, [], str(path), node.line)
     for child in node.children:

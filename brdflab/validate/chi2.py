@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.errors import BrdflabError
+
 SIGNIFICANCE = 0.01
 
 
@@ -45,8 +47,9 @@ class Chi2Result:
 
     @property
     def passed(self) -> bool:
-        """True when the p-value is above the (corrected) threshold."""
-        return bool(self.p_value > self.threshold)
+        """True when the p-value is above the (corrected) threshold; never for a test without data (no
+        samples, no degree of freedom, non-finite counts: see :func:`pearson`)."""
+        return bool(self.dof > 0 and np.isfinite(self.p_value) and self.p_value > self.threshold)
 
 
 def sidak(alpha: float, m: int) -> float:
@@ -160,6 +163,9 @@ def integrate_bins(pdf: Callable[[np.ndarray], np.ndarray], axis: np.ndarray, th
 def pearson(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, float]:
     """Pearson's X² after pooling bins with expected count < 5; returns (X², dof, p-value)."""
     obs, exp = observed.ravel(), expected.ravel()
+    if not (np.all(np.isfinite(obs)) and np.all(np.isfinite(exp))) or obs.sum() == 0 or exp.sum() <= 0:
+        # No samples, or a pdf that is not finite: there is nothing to test; this must never read as a pass.
+        return float("nan"), 0, float("nan")
     small = exp < 5
     o = np.append(obs[~small], obs[small].sum())
     e = np.append(exp[~small], exp[small].sum())
@@ -170,7 +176,9 @@ def pearson(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, flo
     with np.errstate(divide="ignore", invalid="ignore"):
         terms = np.where(e > 0, (o - e) ** 2 / e, np.where(o > 0, np.inf, 0.0))
     stat = float(terms.sum())
-    dof = max(len(o) - 1, 1)
+    dof = len(o) - 1
+    if dof < 1:  # everything pooled into one bin: no degree of freedom, no test
+        return stat, 0, float("nan")
     from scipy import stats  # here, not at the top: scipy.stats costs ~1 s of start-up for every command
 
     return stat, dof, (float(stats.chi2.sf(stat, dof)) if np.isfinite(stat) else 0.0)
@@ -200,6 +208,8 @@ def chi2_test(
     axis
         Axis for the binning (lobe centre).
     """
+    if n < 1:
+        raise BrdflabError(f"a chi-square test needs at least 1 sample, got {n}")
     rng = np.random.default_rng(seed)
     pilot_w, pilot_p = sample(rng.random((max(n // 4, 1000), uniforms)))
     pt, _ = to_angles(pilot_w[pilot_p > 0], axis)

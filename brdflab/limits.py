@@ -1,0 +1,127 @@
+"""Resource limits: input files and memory, checked before anything is read or allocated.
+
+Two documented limits protect a run from inputs that would hang it or exhaust the machine. Both can be
+raised by the user through an environment variable:
+
+=============================  ==================================  ===========================================
+variable                       default                             what it bounds
+=============================  ==================================  ===========================================
+``BRDFLAB_MAX_INPUT_MB``       2048 (2 GiB)                        size of any input file (scene, OBJ, EXR)
+``BRDFLAB_MEMORY_LIMIT_GB``    half of the physical memory         estimated memory of the film, the
+                               (at most 16)                        environment map tables and the workers
+=============================  ==================================  ===========================================
+
+:func:`read_input` is the one way brdflab opens a user's file for reading: it refuses what is not a
+regular file (a FIFO would block forever, ``/dev/zero`` would never end, a directory cannot be read) and
+says which kind of file it is, and it refuses files above the size limit before reading a byte (a 20 GB
+sparse file). :func:`check_input` does the same checks for readers that open the path themselves
+(OpenEXR). :func:`check_memory` compares an estimate with the memory limit and raises
+:class:`~brdflab.errors.ResourceError` ("would need 3.0 GiB for …") instead of letting an allocation end
+in ``MemoryError`` or the kernel's OOM killer.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+from pathlib import Path
+
+from brdflab.errors import BrdflabError, ResourceError, clean
+
+INPUT_ENV = "BRDFLAB_MAX_INPUT_MB"
+MEMORY_ENV = "BRDFLAB_MEMORY_LIMIT_GB"
+DEFAULT_INPUT_MB = 2048
+#: Resident memory a forked render worker needs besides what it shares with the parent (its batch
+#: temporaries and interpreter pages that copy-on-write duplicates), used by the worker estimate.
+WORKER_BYTES = 96 * 2**20
+
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def _env_number(name: str, default: float) -> float:
+    text = os.environ.get(name)
+    if text is None or not text.strip():
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value < float("inf")):
+        raise BrdflabError(f"environment variable {name} must be a positive number, got '{clean(text)}'")
+    return value
+
+
+def max_input_bytes() -> int:
+    """The input-file size limit in bytes (``BRDFLAB_MAX_INPUT_MB``, default 2048)."""
+    return int(_env_number(INPUT_ENV, DEFAULT_INPUT_MB) * 2**20)
+
+
+def memory_limit_bytes() -> int:
+    """The memory limit in bytes (``BRDFLAB_MEMORY_LIMIT_GB``, default half of physical memory, ≤ 16 GiB)."""
+    try:
+        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        physical = 16 * 2**30
+    default = min(16.0, physical / 2 / 2**30)
+    return int(_env_number(MEMORY_ENV, default) * 2**30)
+
+
+def gib(nbytes: float) -> str:
+    """``"3.0 GiB"`` (or MiB below one GiB)."""
+    return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
+
+
+def check_memory(nbytes: float, what: str) -> None:
+    """Raise :class:`ResourceError` when ``nbytes`` (an estimate) exceeds :func:`memory_limit_bytes`.
+
+    ``what`` completes "would need … for": e.g. ``"the 16384×8192 environment map"``.
+    """
+    limit = memory_limit_bytes()
+    if nbytes > limit:
+        raise ResourceError(f"would need {gib(nbytes)} for {what}, more than the memory limit of {gib(limit)} "
+                            f"(raise it with {MEMORY_ENV}=<GiB>)")
+
+
+def check_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> int:
+    """Check that ``path`` is a readable regular file within the size limit; return its size in bytes.
+
+    Raises ``error`` (a :class:`BrdflabError` subclass) naming the file: not found, not a regular file
+    (saying what it is instead), too long a name, or larger than ``BRDFLAB_MAX_INPUT_MB``.
+    """
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise error(f"{what} not found", path) from None
+    except OSError as exc:
+        reason = "file name too long" if exc.errno == errno.ENAMETOOLONG else (exc.strerror or str(exc))
+        raise error(f"cannot read {what}: {reason}", path) from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((name for test, name in _KINDS if test(st.st_mode)), "not a regular file")
+        raise error(f"{what} is {kind}, not a regular file", path)
+    limit = max_input_bytes()
+    if st.st_size > limit:
+        raise error(f"{what} is {gib(st.st_size)}, larger than the input limit of {gib(limit)} "
+                    f"(raise it with {INPUT_ENV}=<MiB>)", path)
+    return st.st_size
+
+
+def read_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> bytes:
+    """Read a whole input file after :func:`check_input`; never blocks on a FIFO or reads past the limit."""
+    check_input(path, what, error)
+    try:
+        # O_NONBLOCK: if the path was swapped for a FIFO after the check, open() must not wait for a writer.
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror}", path) from None
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            raise error(f"{what} is not a regular file", path)
+        try:
+            data = f.read()
+        except OSError as exc:
+            raise error(f"cannot read {what}: {exc.strerror}", path) from None
+    if len(data) > max_input_bytes():
+        raise error(f"{what} grew beyond the input limit while it was read (raise it with {INPUT_ENV})", path)
+    return data

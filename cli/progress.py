@@ -1,0 +1,91 @@
+"""Render progress: a ``tqdm`` bar on a terminal, plain lines otherwise.
+
+tqdm fits the bar to the terminal width (and follows resizes), smooths the rate for the ETA and formats
+sample counts; brdflab only adds the time limit: with ``--time-limit`` the bar's total is what fits in
+the limit at the current rate, so the ETA never exceeds the time left. When stderr is not a terminal
+(a log file, CI, a pipe), a plain line is printed at the first completed pass and then at most every
+:data:`PLAIN_INTERVAL` seconds.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+#: Seconds between two plain progress lines.
+PLAIN_INTERVAL = 5.0
+
+
+class Progress:
+    """Callable ``(fraction done, stats)`` for :func:`brdflab.render.render`.
+
+    Parameters
+    ----------
+    label
+        Shown before the bar.
+    total_samples, spp
+        Camera samples and samples per pixel of the whole render.
+    time_limit
+        The ``--time-limit`` in seconds, if any.
+    stream
+        Where to write (default ``sys.stderr``).
+    quiet
+        Write nothing.
+    """
+
+    def __init__(self, label: str, total_samples: int, spp: int, time_limit: float | None = None,
+                 stream=None, quiet: bool = False) -> None:
+        self.label = label
+        self.total = total_samples
+        self.spp = spp
+        self.time_limit = time_limit
+        self.stream = stream if stream is not None else sys.stderr
+        self.quiet = quiet
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+        self.passes = 0
+        self.bar = None
+
+    def _target(self, done: float, elapsed: float) -> float:
+        """Samples that will have been taken at the end: all of them, or what fits in the time limit."""
+        if self.time_limit is None or elapsed <= 0 or done <= 0:
+            return self.total
+        return min(self.total, max(done, done / elapsed * self.time_limit))
+
+    def __call__(self, frac: float, stats) -> None:
+        if self.quiet:
+            return
+        now = time.perf_counter() - self.t0
+        done = frac * self.total
+        target = self._target(done, now)
+        if self.tty:
+            if self.bar is None:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=target, desc=self.label, unit="sample", unit_scale=True, dynamic_ncols=True,
+                                file=self.stream, leave=True, mininterval=0.1)
+            self.bar.total = target
+            self.bar.update(done - self.bar.n)
+            if frac >= 1 or done >= target:
+                self.close()
+            return
+        first_pass = stats.spp > 0 and self.passes == 0
+        if not (first_pass or frac >= 1 or now - self.last >= PLAIN_INTERVAL):
+            return
+        self.passes = max(self.passes, stats.spp)
+        eta = now * (target - done) / done if done > 0 else float("nan")
+        self.stream.write(f"{self.label}: {100 * frac:.1f}% ({stats.spp:,} of {self.spp:,} spp) after {now:.1f} s, "
+                          f"ETA {eta:.1f} s\n")
+        self.stream.flush()
+        self.last = now
+
+    def close(self, complete: bool = False) -> None:
+        """End the bar (keeps its last state on screen); ``complete``: the render ended normally (a time limit
+        may have ended it before the estimated total), show it full."""
+        if self.bar is not None:
+            if complete:
+                self.bar.total = self.bar.n
+                self.bar.refresh()
+            self.bar.close()
+            self.bar = None
