@@ -11,8 +11,10 @@ Usage (brdflab's environment active)::
   one warm-up render of each (the workers import brdflab and build the scene once); reports median
   samples/s of both and their ratio, and checks that every cluster image is bit-identical to the fork
   pool's.
-* Per-task overhead: (a) round trip of empty tasks (submit + run + gather, 2 workers), (b) in the renders,
-  ``1 − Σ worker busy time / (wall time × workers)`` — the share of the workers' time not spent in tasks.
+* Per-task overhead: (a) round trip of empty tasks (submit + run + gather, 2 workers); (b) in the renders,
+  ``1 − Σ worker busy time / (wall time × workers)`` — the share of the workers' time not spent in tasks;
+  (c) CPU time per render task of the client (receiving and merging tile films) and of the scheduler
+  process; (d) bytes of tile films returned per task.
 * ``--task-units`` also times one cluster render per batch size (units per task), alternating.
 * Writes ``benchmarks/results/cluster.json``.
 """
@@ -31,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import psutil
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -100,7 +103,8 @@ def main() -> None:
             ref, _ = render(scene, spp=args.spp, seed=0, workers=2)  # warm-up
             img, _ = render(scene, spp=args.spp, seed=0, cluster=cl)  # warm-up: ships and builds the scene
             assert np.array_equal(img, ref), "cluster image differs from the fork pool's"
-            fork, dask, idle, tasks, embree = [], [], [], 0, []
+            fork, dask, idle, tasks, embree, client_cpu, sched_cpu = [], [], [], 0, [], [], []
+            sched = psutil.Process(procs[0].pid)
             for r in range(args.rounds):
                 order = ("fork", "dask") if r % 2 == 0 else ("dask", "fork")
                 for kind in order:
@@ -108,14 +112,23 @@ def main() -> None:
                         img, st = render(scene, spp=args.spp, seed=0, workers=2)
                         fork.append(st.samples_per_second)
                     else:
+                        c0, s0 = time.process_time(), sum(sched.cpu_times()[:2])
                         img, st = render(scene, spp=args.spp, seed=0, cluster=cl)
+                        c1, s1 = time.process_time(), sum(sched.cpu_times()[:2])
                         dask.append(st.samples_per_second)
                         idle.append(idle_share(st))
                         tasks = sum(w.tasks for w in st.per_worker.values())
+                        client_cpu.append((c1 - c0) / tasks)
+                        sched_cpu.append((s1 - s0) / tasks)
                         embree.append({a: round(w.embree_share, 3) for a, w in st.per_worker.items()})
                     assert np.array_equal(img, ref), f"{kind} image differs"
                     print(f"round {r}: {kind:4s} {st.samples_per_second / 1e6:.3f} M samples/s "
                           f"({st.seconds:.2f} s)", flush=True)
+            border = 3  # the Gaussian filter's border (⌈2⌉ + 1): a 16 × 16 tile's film is 22 × 22 × 4 float64
+            rec["film_bytes_per_task"] = cl.task_units * 4 * (16 + 2 * border) ** 2 * 8
+            rec["samples_per_task"] = cl.task_units * (1 << 14)
+            rec.update(client_cpu_per_task=statistics.median(client_cpu),
+                       scheduler_cpu_per_task=statistics.median(sched_cpu))
             rec.update(fork_samples_per_s=fork, dask_samples_per_s=dask, idle_share=idle, tasks_per_render=tasks,
                        embree_share_per_worker=embree, bit_identical=True,
                        median_fork=statistics.median(fork), median_dask=statistics.median(dask),
@@ -141,6 +154,9 @@ def main() -> None:
     rec["machine"]["load_avg_end"] = os.getloadavg()
     print(f"empty task round trip: {1e3 * rec['empty_task_seconds']:.2f} ms; scene shipped per worker: "
           f"{blob / 2**20:.2f} MiB; {rec['tasks_per_render']} tasks per render")
+    print(f"per render task: client CPU {1e3 * rec['client_cpu_per_task']:.2f} ms, scheduler CPU "
+          f"{1e3 * rec['scheduler_cpu_per_task']:.2f} ms, {rec['film_bytes_per_task'] / 1024:.0f} KiB of tile films "
+          f"for {rec['samples_per_task']:,} samples")
     print(f"fork pool (2 workers): {rec['median_fork'] / 1e6:.3f} M samples/s; dask (2 single-threaded workers): "
           f"{rec['median_dask'] / 1e6:.3f} M samples/s; ratio {rec['ratio']:.3f} (median of {args.rounds}, "
           f"alternating); workers idle {100 * statistics.median(rec['idle_share']):.1f} % of the render")

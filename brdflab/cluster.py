@@ -184,16 +184,11 @@ def _attach_embree(g) -> None:
 def scene_bytes(scene) -> bytes:
     """The scene pickled for shipping: no Embree handles or ray counters; the triangle tables are
     rebuilt from the meshes on the worker when the geometry is exactly their concatenation."""
-    import sys
-
     import cloudpickle
 
     from brdflab.scene.geometry import Geometry, RayStats
 
-    # Plugins loaded from a .py file live in a module no worker can import: ship their classes by value.
-    for name, module in list(sys.modules.items()):
-        if name.startswith("brdflab_plugin_") and module is not None:
-            cloudpickle.register_pickle_by_value(module)
+    _ship_plugin_modules()
     meshes = [m.mesh for m in getattr(scene, "meshes", [])]
 
     class Pickler(cloudpickle.Pickler):
@@ -212,6 +207,38 @@ def scene_bytes(scene) -> bytes:
     buf = io.BytesIO()
     Pickler(buf, protocol=5).dump(scene)
     return buf.getvalue()
+
+
+def _ship_plugin_modules() -> None:
+    """Plugins loaded from a .py file live in a module no worker can import: pickle their classes by value."""
+    import sys
+
+    import cloudpickle
+
+    for name, module in list(sys.modules.items()):
+        if name.startswith("brdflab_plugin_") and module is not None:
+            cloudpickle.register_pickle_by_value(module)
+
+
+def user_bsdf_classes() -> bytes:
+    """The user BSDF classes registered in this process, pickled for jobs that may run on cluster workers
+    (see :func:`register_user_bsdfs`); classes from plugin files travel by value."""
+    import cloudpickle
+
+    from brdflab import plugins
+
+    _ship_plugin_modules()
+    return cloudpickle.dumps([plugins.bsdf_class(n) for n in plugins.bsdf_names() if not plugins.is_builtin(n)])
+
+
+def register_user_bsdfs(blob: bytes) -> None:
+    """In a job: register the client's user BSDF classes (from :func:`user_bsdf_classes`) not yet known here."""
+    from brdflab import plugins
+
+    for cls in pickle.loads(blob):
+        known = cls.type_name in plugins.bsdf_names()
+        if not known or plugins.bsdf_class(cls.type_name) is not cls:
+            plugins.register_bsdf(cls, origin="a plugin of the cluster client")
 
 
 def _path_fingerprint(scene) -> str:
@@ -547,6 +574,7 @@ class Cluster:
         importable by the workers: a module-level function). Closing the iterator cancels the rest."""
         from distributed.client import FutureCancelledError
 
+        self._check_code()
         tag = uuid.uuid4().hex[:8]
         futures = [self.client.submit(fn, job, key=f"brdflab-job-{tag}-{i}", pure=False) for i, job in enumerate(jobs)]
         done = 0
@@ -565,6 +593,16 @@ class Cluster:
                     self.client.cancel(futures[done:], force=True)
                 except Exception:  # noqa: BLE001 - nothing to cancel on a lost scheduler
                     pass
+
+    def _check_code(self) -> None:
+        """Every worker must run the client's brdflab (jobs compute on the workers' code)."""
+        if getattr(self, "_code_checked", False):
+            return
+        for addr, digest in self.client.run(code_digest).items():
+            if digest != code_digest():
+                raise BrdflabError(f"worker {addr} runs a different brdflab than the client (source digest "
+                                   f"{digest[:12]} ≠ {code_digest()[:12]}); install the same version on every worker")
+        self._code_checked = True
 
     def map(self, fn: Callable, jobs: Iterable) -> list:
         """``[fn(job) for job in jobs]`` on the cluster, in job order."""

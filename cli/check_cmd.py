@@ -9,6 +9,8 @@ from pathlib import Path
 from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError
 
+from .cluster_options import add_cluster_options, cluster_from_args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``check`` sub-command."""
@@ -36,6 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
                    "check-<stem>/ beside the first render)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
+    add_cluster_options(p)
     p.set_defaults(func=run)
 
 
@@ -74,8 +77,12 @@ def run(args: argparse.Namespace) -> int:
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
     if ref is None:
         say(f"brdflab estimate: {args.runs} runs × {args.spp} spp of {integrator} at {cam.width}×{cam.height}")
-    res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
-                    args.alpha, args.workers, progress=say, user_spp=user_spp)
+    with cluster_from_args(args, quiet=args.quiet) as cluster:
+        # On a cluster each independent run is one job, rendered by one single-threaded worker (the scene is
+        # loaded there from its path: a shared file system); the runs' seeds make the result placement-free.
+        res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
+                        args.alpha, 1 if cluster else args.workers, progress=say, user_spp=user_spp,
+                        map_fn=map if cluster is None else cluster.imap)
     out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
     page = write_check(out, args.renders, images, res, args.scene)
     print(res.verdict())

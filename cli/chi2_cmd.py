@@ -9,6 +9,7 @@ from pathlib import Path
 from brdflab.cli.argtypes import count
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
+from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_bsdf_options, bsdf_spec_from_args, load_plugins
 
 
@@ -27,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per test, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/chi2_<name>)")
+    add_cluster_options(p)
     p.set_defaults(func=run, parser=p)
 
 
@@ -47,9 +49,11 @@ def run(args: argparse.Namespace) -> int:
         name, alphas, thetas = args.warp, args.alpha, args.theta
         if args.param:
             raise BrdflabError("--param applies to --bsdf, not to --warp")
-    bat = run_battery(n=args.samples, bsdfs=[name] if args.bsdf else [],
-                      warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
-                      thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print)
+    with cluster_from_args(args) as cluster:
+        bat = run_battery(n=args.samples, bsdfs=[name] if args.bsdf else [],
+                          warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
+                          thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print,
+                          cluster=cluster)
     out = args.output or DEFAULT_REPORTS / f"chi2_{name.replace('/', '_')}"
     parent_created = output_folder(out.parent) if args.output else False
     output_folder(out)

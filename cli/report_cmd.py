@@ -10,6 +10,7 @@ from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError, clean
 from brdflab.outputs import DEFAULT_REPORTS, check_not_inputs, index_root, output_folder
 
+from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_plugin_option, load_plugins
 
 
@@ -31,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^64) (default 0)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
     add_plugin_option(p)
+    add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)
 
 
@@ -63,8 +65,9 @@ def run(args: argparse.Namespace) -> int:
     written = [out / "report.html", out / f"{stem}_reference.png"]
     written += [out / f"{stem}_{n}_{s}spp{ext}" for n in integrators for s in spp for ext in (".exr", ".png")]
     check_not_inputs(written, [args.scene, *([args.ref] if args.ref else [])])
-    study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
-                      progress=lambda msg: print(msg, file=sys.stderr))
+    with cluster_from_args(args) as cluster:
+        study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
+                          progress=lambda msg: print(msg, file=sys.stderr), cluster=cluster)
     path = write_report(study, out)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:

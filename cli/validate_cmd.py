@@ -9,6 +9,7 @@ from pathlib import Path
 from brdflab.cli.argtypes import count
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
+from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_bsdf_options, bsdf_spec_from_args, load_plugins
 
 
@@ -21,6 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=count(1000), default=200_000,
                    help="samples per chi-square test, at least 1000 (default 200000)")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
+    add_cluster_options(p)
     p.set_defaults(func=run)
 
 
@@ -39,13 +41,14 @@ def run(args: argparse.Namespace) -> int:
         specs = [bsdf_spec_from_args(args, name) for name in args.bsdf]
         if len(specs) > 1 and args.param:
             raise BrdflabError("--param applies to a single --bsdf")
-        bat = run_battery(n=args.samples, bsdfs=[s[0] for s in specs], warp_names=[],
-                          alphas=tuple(args.alpha or ALPHAS), thetas=tuple(args.theta or THETAS),
-                          params=specs[0][1], progress=print)
+        kwargs = {"bsdfs": [s[0] for s in specs], "warp_names": [], "alphas": tuple(args.alpha or ALPHAS),
+                  "thetas": tuple(args.theta or THETAS), "params": specs[0][1]}
     else:
         if args.param or args.alpha or args.theta:
             raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
-        bat = run_battery(n=args.samples, progress=print)
+        kwargs = {}
+    with cluster_from_args(args) as cluster:
+        bat = run_battery(n=args.samples, progress=print, cluster=cluster, **kwargs)
     path = write_validation_report(bat, out)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:

@@ -274,3 +274,62 @@ def test_slurm_example_builds_a_job_script():
     assert "#SBATCH -p short" in script and "#SBATCH -A lab" in script
     assert "--nthreads 1" in script and "distributed.cli.dask_worker" in script
     assert json.dumps(example["JOB"])  # the documented defaults are plain data
+
+
+def _report_scene(tmp_path: Path) -> Path:
+    return small_cbox(tmp_path, 32, 24, "cbox_spheres")
+
+
+def test_report_on_the_cluster_gives_the_same_numbers(cluster, tmp_path, monkeypatch):
+    from brdflab.cli.main import main
+
+    scene = _report_scene(tmp_path)
+    args = ["report", str(scene), "--spp", "1,4", "--ref-spp", "8", "--integrators", "direct_ems,direct_mis"]
+    monkeypatch.delenv("BRDFLAB_CLUSTER", raising=False)
+    assert main([*args, "-o", str(tmp_path / "local")]) == 0
+    monkeypatch.setenv("BRDFLAB_CLUSTER", cluster.client.scheduler.address)  # the environment variable route
+    assert main([*args, "-o", str(tmp_path / "cluster")]) == 0
+
+    def numbers(folder: str) -> list[tuple]:
+        rows = json.loads((tmp_path / folder / "results.json").read_text())["checkpoints"]
+        return [(r["integrator"], r["spp"], r["relmse"], r["mse"], r["mape"], r["bias"]) for r in rows]
+
+    assert numbers("local") == numbers("cluster") and len(numbers("local")) == 2 * 3  # 1, 2, 4 spp each
+
+
+def test_validation_sweep_on_the_cluster_gives_the_same_results(cluster, tmp_path):
+    from brdflab import plugins
+    from brdflab.cli.main import main
+    from brdflab.cluster import user_bsdf_classes
+    from brdflab.validate.battery import consistency_job, plan, run_chi2
+
+    plugins.load_plugin(ROOT / "tests" / "plugins" / "uniform_lambert.py")  # a user BSDF: shipped to the workers
+    try:
+        tests = plan(["roughconductor", "uniform_lambert"], ["beckmann"], alphas=(0.1,), thetas=(30.0,))
+        here, there = run_chi2(tests, 20_000, 0.002), run_chi2(tests, 20_000, 0.002, cluster=cluster)
+        jobs = [(name, a, 45.0, 20_000, {}, user_bsdf_classes()) for name, a in (("roughconductor", 0.1),
+                                                                                  ("uniform_lambert", None))]
+        cons_here, cons_there = map_jobs(consistency_job, jobs), map_jobs(consistency_job, jobs, cluster)
+    finally:
+        plugins.unregister_bsdf("uniform_lambert")
+        plugins.unregister_bsdf("uniform_lambert_broken")
+    assert len(here) == 3 and [(r.name, r.params, r.p_value) for r in here] == [
+        (r.name, r.params, r.p_value) for r in there]
+    assert [vars(r) for r in cons_here] == [vars(r) for r in cons_there]
+    # The command line: chi2 --cluster ADDRESS.
+    out = tmp_path / "chi2"
+    assert main(["chi2", "--warp", "cosine_hemisphere", "--samples", "20000", "--cluster",
+                 cluster.client.scheduler.address, "-o", str(out)]) == 0
+    assert (out / "index.html").exists()
+
+
+def test_check_runs_on_the_cluster_give_the_same_verdict(cluster, tmp_path):
+    from brdflab.stats.check import run_check
+
+    scene = small_cbox(tmp_path, 32, 24, "cbox_spheres")
+    user = [render(load_scene(scene), spp=4, seed=77, workers=1)[0]]
+    kw = {"spp": 4, "runs": 2, "seed": 3, "workers": 1, "user_spp": 4}
+    here = run_check(user, scene, "direct_ems", **kw)
+    there = run_check(user, scene, "direct_ems", map_fn=cluster.imap, **kw)
+    assert np.array_equal(here.estimate, there.estimate)
+    assert (here.p_value, here.bias, here.bias_p) == (there.p_value, there.bias, there.bias_p)

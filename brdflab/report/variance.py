@@ -90,6 +90,7 @@ def run_study(
     workers: int | None = None,
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
+    cluster=None,
 ) -> Study:
     """Render ``scene_path`` with each integrator up to max(spp_list) and measure error at every pass.
 
@@ -108,6 +109,11 @@ def run_study(
         Passed to the renderer.
     progress
         Receives one-line status messages (integrator, spp, ETA).
+    cluster
+        A :class:`brdflab.cluster.Cluster` (or address): every render's (pass, tile) units run there. The
+        renders themselves stay one after another, so each integrator's checkpoint times are measured on
+        the same resources (what an equal-time comparison needs); the images, hence every error figure,
+        are bit-identical to a local study.
     """
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
@@ -124,7 +130,7 @@ def run_study(
         ref_spp = reference_spp or 4 * max_spp
         say(f"reference: direct_mis at {ref_spp} spp (made by brdflab; no reference was given)")
         ref_scene = load_scene(scene_path, "direct_mis")
-        ref, stats = render(ref_scene, spp=ref_spp, seed=seed + 1_000_003, workers=workers,
+        ref, stats = render(ref_scene, spp=ref_spp, seed=seed + 1_000_003, workers=workers, cluster=cluster,
                             progress=_eta_printer(say, f"reference {ref_spp} spp"))
         label = f"brdflab direct_mis, {ref_spp} spp, independent seed ({stats.seconds:.1f} s)"
     study = Study(scene_path, integrators, sorted(set(spp_list)), label, ref, resolution=(cam.width, cam.height))
@@ -140,7 +146,7 @@ def run_study(
                 study.images[(name, spp)] = img
             study.pass_images[(name, spp)] = img.astype(np.float16)
 
-        _, stats = render(scene, spp=max_spp, seed=seed, workers=workers, on_pass=on_pass,
+        _, stats = render(scene, spp=max_spp, seed=seed, workers=workers, on_pass=on_pass, cluster=cluster,
                           checkpoints=tuple(study.spp), progress=_eta_printer(say, f"{name} {max_spp} spp"))
         study.workers = stats.workers
     return study

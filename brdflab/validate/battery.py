@@ -160,33 +160,58 @@ def plan(bsdfs: list[str] | None = None, warp_names: list[str] | None = None, al
 
 
 def run_chi2(tests: list[tuple], n: int, threshold: float, params: dict | None = None,
-             progress: Callable[[str], None] | None = None) -> list[c2.Chi2Result]:
-    """Run the planned chi-square tests at the given per-test threshold."""
+             progress: Callable[[str], None] | None = None, cluster=None) -> list[c2.Chi2Result]:
+    """Run the planned chi-square tests at the given per-test threshold, here or on ``cluster`` (one job
+    per test; each test draws from its own seeded stream, so the results do not depend on placement)."""
+    from brdflab.cluster import iter_jobs, user_bsdf_classes
+
     params = params or {}
+    shipped = user_bsdf_classes()
+    jobs = [(kind, name, a, t, n, threshold, params, shipped) for kind, name, a, t in tests]
     out = []
-    for kind, name, a, t in tests:
-        # Parameters are part of a test's identity (only when given, so the built-in battery keeps its streams).
-        seed = _seed(kind, name, a, t, *sorted((k, repr(v)) for k, v in params.items()))
-        if kind == "bsdf":
-            bsdf = make_named_bsdf(name, a, params)
-            axis = np.array([0.0, 0.0, 1.0]) if name in ("diffuse", "roughsubstrate/diffuse") else None
-            r = c2.bsdf_test(name, bsdf, t, n, seed=seed, params={"alpha": a, "theta": t, **params},
-                             threshold=threshold, axis=axis)
-        elif name in POINT_WARPS:
-            w, p, bounds = POINT_WARPS[name]
-            r = c2.point_warp_test(name, w, p, bounds, n, seed=seed, params={}, threshold=threshold)
-        else:
-            w, p, takes_alpha = WARPS[name]
-            if takes_alpha:
-                w_, p_ = (lambda u, a=a, w=w: w(u, a)), (lambda d, a=a, p=p: p(d, a))
-            else:
-                w_, p_ = w, p
-            r = c2.warp_test(name, w_, p_, n, seed=seed, params={"alpha": a} if takes_alpha else {},
-                             threshold=threshold)
+    for r in iter_jobs(chi2_job, jobs, cluster):
         out.append(r)
         if progress:
             progress(f"{'PASS' if r.passed else 'FAIL'}  chi2 {r.name:24s} {_fmt(r.params):28s} p = {r.p_value:.4f}")
     return out
+
+
+def chi2_job(job: tuple) -> c2.Chi2Result:
+    """One chi-square test from its descriptor (kind, name, α, θ, samples, threshold, params, user BSDF
+    classes to register first): what :func:`run_chi2` maps over, in this process or on cluster workers."""
+    from brdflab.cluster import register_user_bsdfs
+
+    kind, name, a, t, n, threshold, params, shipped = job
+    register_user_bsdfs(shipped)
+    # Parameters are part of a test's identity (only when given, so the built-in battery keeps its streams).
+    seed = _seed(kind, name, a, t, *sorted((k, repr(v)) for k, v in params.items()))
+    if kind == "bsdf":
+        bsdf = make_named_bsdf(name, a, params)
+        axis = np.array([0.0, 0.0, 1.0]) if name in ("diffuse", "roughsubstrate/diffuse") else None
+        r = c2.bsdf_test(name, bsdf, t, n, seed=seed, params={"alpha": a, "theta": t, **params},
+                         threshold=threshold, axis=axis)
+    elif name in POINT_WARPS:
+        w, p, bounds = POINT_WARPS[name]
+        r = c2.point_warp_test(name, w, p, bounds, n, seed=seed, params={}, threshold=threshold)
+    else:
+        w, p, takes_alpha = WARPS[name]
+        if takes_alpha:
+            w_, p_ = (lambda u, a=a, w=w: w(u, a)), (lambda d, a=a, p=p: p(d, a))
+        else:
+            w_, p_ = w, p
+        r = c2.warp_test(name, w_, p_, n, seed=seed, params={"alpha": a} if takes_alpha else {},
+                         threshold=threshold)
+    return r
+
+
+def consistency_job(job: tuple) -> consistency.ConsistencyResult:
+    """One consistency check (name, α, θ, samples, params, user BSDF classes) with its own seed."""
+    from brdflab.cluster import register_user_bsdfs
+
+    name, a, t, n, params, shipped = job
+    register_user_bsdfs(shipped)
+    return consistency.check_bsdf(f"{name} α={a}", make_named_bsdf(name, a, params), t, n=n,
+                                  seed=_seed("cons", name, a, t))
 
 
 def _fmt(params: dict) -> str:
@@ -195,7 +220,8 @@ def _fmt(params: dict) -> str:
 
 def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: list[str] | None = None,
                 alphas=ALPHAS, thetas=THETAS, params: dict | None = None, full: bool = True,
-                progress: Callable[[str], None] | None = None, light_transport: bool | None = None) -> Battery:
+                progress: Callable[[str], None] | None = None, light_transport: bool | None = None,
+                cluster=None) -> Battery:
     """Run the battery.
 
     Parameters
@@ -213,11 +239,16 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
     light_transport
         Also check the emitters' samplers and the estimators' agreement on the generated light scenes
         (:func:`run_light_transport`); default: for the whole battery (``full``, all BSDFs and warps).
+    cluster
+        A :class:`brdflab.cluster.Cluster` (or address) to run the chi-square tests and consistency checks
+        on, one job each (same verdicts and p-values as here: every test has its own random stream).
     """
+    from brdflab.cluster import iter_jobs, user_bsdf_classes
+
     tests = plan(bsdfs, warp_names, alphas, thetas)
     threshold = c2.sidak(c2.SIGNIFICANCE, len(tests))
     bat = Battery(threshold=threshold)
-    bat.chi2 = run_chi2(tests, n, threshold, params, progress)
+    bat.chi2 = run_chi2(tests, n, threshold, params, progress, cluster)
     if not full:
         return bat
     for t in (30.0, 60.0):
@@ -228,18 +259,15 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control θ={t:g}: "
                      f"p = {r.p_value:.3g}")
     names = bsdfs if bsdfs is not None else ["diffuse", "roughconductor", "roughsubstrate"]
-    for name in names:
-        if "/" in name:
-            continue
-        for a in ((1e-3, 0.1, 1.0) if has_alpha(name) else (None,)):
-            for t in (0.0, 45.0, 85.0):
-                r = consistency.check_bsdf(f"{name} α={a}", make_named_bsdf(name, a, params), t,
-                                           n=min(n, 200_000), seed=_seed("cons", name, a, t))
-                bat.consistency.append(r)
-                if progress:
-                    progress(f"{'PASS' if r.passed else 'FAIL'}  consistency {r.name} θ={t:g}: weight err "
-                             f"{r.max_weight_error:.1e}, ∫pdf {r.pdf_integral:.4f} (valid {r.valid_fraction:.4f}), "
-                             f"reciprocity {r.max_reciprocity_error:.1e}")
+    shipped = user_bsdf_classes()
+    jobs = [(name, a, t, min(n, 200_000), params, shipped) for name in names if "/" not in name
+            for a in ((1e-3, 0.1, 1.0) if has_alpha(name) else (None,)) for t in (0.0, 45.0, 85.0)]
+    for r in iter_jobs(consistency_job, jobs, cluster):
+        bat.consistency.append(r)
+        if progress:
+            progress(f"{'PASS' if r.passed else 'FAIL'}  consistency {r.name} θ={r.theta:g}: weight err "
+                     f"{r.max_weight_error:.1e}, ∫pdf {r.pdf_integral:.4f} (valid {r.valid_fraction:.4f}), "
+                     f"reciprocity {r.max_reciprocity_error:.1e}")
     for name, make in (("roughconductor R0=1", lambda a: RoughConductor(1.0, a)),
                        ("roughsubstrate kd=1", lambda a: RoughSubstrate(1.0, a))):
         if bsdfs is not None and name.split()[0] not in bsdfs:
