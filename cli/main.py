@@ -38,7 +38,7 @@ EXIT_STATUS = {0: "success", 1: "a check failed", 2: "usage error or bad input",
                130: "Ctrl-C (SIGINT)", 141: "output pipe closed", 143: "SIGTERM"}
 
 #: Sub-command modules, in the order they appear in ``--help``. Missing modules are skipped.
-COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot")
+COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot", "explore")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,110 @@
+"""brdflab explore in a real headless Chromium (Selenium + Debian's chromium-driver): move a slider, see the
+plots change. Skips cleanly without chromium, chromedriver or selenium; the server and the browser are
+always shut down, and every wait is bounded."""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+
+import pytest
+
+from tests.test_report import _chromium
+
+STATUS_JS = ("return (window.Bokeh && Bokeh.documents.length && Bokeh.documents[0].get_model_by_name('status'))"
+             " ? Bokeh.documents[0].get_model_by_name('status').text : ''")
+# Bokeh 3 renders widgets in shadow roots: find each slider's title and handle there.
+SLIDERS_JS = """
+const out = [];
+const walk = (root) => root.querySelectorAll('*').forEach(e => {
+  if (!e.shadowRoot) return;
+  const s = e.shadowRoot, title = s.querySelector('.bk-slider-title'), handle = s.querySelector('.noUi-handle');
+  if (title && handle) out.push([title.textContent, handle]);
+  walk(s);
+});
+walk(document);
+return out;
+"""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait(pred, timeout: float, what: str):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        v = pred()
+        if v:
+            return v
+        time.sleep(0.25)
+    pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")
+
+
+def test_explorer_slider_updates_the_plots(tmp_path):
+    exe, driver_exe = _chromium(), shutil.which("chromedriver")
+    if exe is None or driver_exe is None:
+        pytest.skip("no chromium/chromedriver on this machine (CI installs Debian's chromium and chromium-driver)")
+    webdriver = pytest.importorskip("selenium.webdriver")
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    port = _free_port()
+    url = f"http://127.0.0.1:{port}/"
+    log = open(tmp_path / "explore.log", "w")
+    server = subprocess.Popen([sys.executable, "-m", "brdflab.cli.main", "explore", "--port", str(port),
+                               "--no-browser"], stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    driver = None
+    try:
+        def up():
+            if server.poll() is not None:
+                tail = (tmp_path / 'explore.log').read_text()[-2000:]
+                pytest.fail(f"explore exited with {server.returncode}: {tail}")
+            try:
+                return urllib.request.urlopen(url, timeout=5).status == 200
+            except OSError:
+                return False
+
+        _wait(up, 90, "the explorer to serve")
+        html = urllib.request.urlopen(url, timeout=10).read().decode()
+        assert 'src="/static/js/bokeh' in html and "cdn" not in html.lower()  # JS served locally, no CDN
+        opts = webdriver.ChromeOptions()
+        for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1500,1000",
+                  "--disable-background-networking", "--disable-component-update", f"--user-data-dir={tmp_path}/p"):
+            opts.add_argument(a)
+        opts.binary_location = exe
+        driver = webdriver.Chrome(options=opts, service=webdriver.ChromeService(executable_path=driver_exe))
+        driver.set_page_load_timeout(90)
+        driver.set_script_timeout(30)
+        driver.get(url)
+        before = _wait(lambda: "peak f" in driver.execute_script(STATUS_JS) and driver.execute_script(STATUS_JS),
+                       90, "the first plots")
+        assert "θ_i = 45°" in before
+        shot_before = driver.get_screenshot_as_png()
+        sliders = _wait(lambda: driver.execute_script(SLIDERS_JS), 30, "the sliders")
+        titles = [t for t, _ in sliders]
+        assert any(t.startswith("alpha") for t in titles) and any(t.startswith("R0") for t in titles), titles
+        handle = next(h for t, h in sliders if t.startswith("θ_i"))
+        ActionChains(driver).click_and_hold(handle).move_by_offset(-80, 0).release().perform()
+        after = _wait(lambda: (s := driver.execute_script(STATUS_JS)) != before and "peak f" in s and s, 60,
+                      "the plots to follow the slider")
+        assert "θ_i = 45°" not in after
+        theta = float(after.split("θ_i = ")[1].split("°")[0])
+        assert 0 <= theta < 45
+        time.sleep(0.5)  # let the canvases repaint
+        assert driver.get_screenshot_as_png() != shot_before
+    finally:
+        if driver is not None:
+            driver.quit()
+        server.terminate()
+        try:
+            server.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait(timeout=15)
+        log.close()
