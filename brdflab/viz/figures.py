@@ -141,7 +141,7 @@ def lobe_figure(lobe: Lobe, labels: list[str], theta_i: float, phi_i: float = 0.
 
 
 def slice_figure(theta_h: np.ndarray, theta_d: np.ndarray, values: np.ndarray, labels: list[str],
-                 phi_d: float = 90.0, decades: int = 5):
+                 phi_d: float = 90.0, decades: int = 7):
     """θ_h × θ_d image slices at φ_d, log colour scale shared by all panels, with a colour bar."""
     import matplotlib
     from matplotlib.colors import LogNorm
