@@ -28,6 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p._option_string_actions["--alpha"].help = "roughness for every --bsdf with an alpha that does not set it " \
         "(repeatable: one material per value, an α sweep)"
     p._option_string_actions["--theta"].help = "incident angle θ_i in degrees (default 45)"
+    p._option_string_actions["--param"].help = ("parameter for every --bsdf that has it and does not set it itself, "
+                                                "e.g. R0=0.9 or R0=0.9,0.8,0.7 (repeatable)")
     p.add_argument("--phi-d", type=float, default=90.0, help="φ_d of the θh×θd slice in degrees (default 90)")
     p.add_argument("--cos", action="store_true", help="polar plot of f·cos θ_o instead of f")
     p.add_argument("--views", default=",".join(VIEWS), help=f"comma-separated subset of {','.join(VIEWS)}")
@@ -52,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
     theta = thetas[0]
     if not (math.isfinite(theta) and 0 <= theta < 90):
         raise BrdflabError(f"--theta must be in [0, 90) degrees, got {theta:g}")
+    if not (math.isfinite(args.phi_d) and -360 <= args.phi_d <= 360):
+        raise BrdflabError(f"--phi-d must be an angle in degrees in [-360, 360], got {args.phi_d:g}")
     for a in args.alpha or []:
         if not (math.isfinite(a) and a > 0):
             raise BrdflabError(f"--alpha must be > 0, got {a:g}")
