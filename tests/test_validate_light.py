@@ -94,7 +94,7 @@ def test_battery_hook_and_report(tmp_path, monkeypatch):
     assert bat.emitter_chi2 == chi and bat.agreement == [good] and bat.agreement_negative == [bad]
     assert bat.light_transport_passed and bat.passed, bat.failures()
     html = write_validation_report(bat, tmp_path).read_text()
-    assert "Estimator agreement" in html and "Emitter samplers" in html and "must be rejected" in html
+    assert "Estimator agreement" in html and "Emitter samplers" in html and "rejected, as it must be" in html
     assert not run_battery(n=2000, bsdfs=["diffuse"], warp_names=[], thetas=(30.0,), full=False).agreement
     for broken in (Battery(agreement=[bad]), Battery(agreement_negative=[good]),
                    Battery(emitter_negative=[("x", False, "")])):

@@ -179,8 +179,11 @@ def _light_transport(bat: Battery) -> dict | None:
         return None
 
     def row(cells, ok, negative=False):
-        cls, text = _verdict(not ok if negative else ok)
-        return {"cells": cells, "cls": cls, "text": text + (" (must be rejected)" if negative else "")}
+        if negative:  # ok = the check passed, i.e. the deliberately broken version was NOT rejected
+            cls, text = ("fail", "NOT rejected: the check is blind") if ok else ("rejected", "rejected, as it must be")
+        else:
+            cls, text = _verdict(ok)
+        return {"cells": cells, "cls": cls, "text": text}
 
     chi = [row([r.name, " ".join(f"{k}={v}" for k, v in r.params.items()), f"{r.statistic:.1f}", r.dof,
                 f"{r.p_value:.4g}"], r.passed) for r in bat.emitter_chi2]
