@@ -9,6 +9,7 @@ from brdflab.errors import BrdflabError
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``explore`` sub-command."""
+    from brdflab.cli.argtypes import count
     from brdflab.cli.options import add_plugin_option
 
     p = sub.add_parser("explore", help="live BRDF explorer in the browser (local Bokeh server on 127.0.0.1)",
@@ -16,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "and watch the polar plot, 3D lobe, θh×θd slice, albedo and samples-over-pdf views update. "
                        "Serves on 127.0.0.1 only; Ctrl-C stops it.")
     add_plugin_option(p)
-    p.add_argument("--port", type=int, default=5006, help="port on 127.0.0.1 (default 5006)")
+    p.add_argument("--port", type=count(1, 65535), default=5006, help="port on 127.0.0.1 (default 5006)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser tab")
     p.set_defaults(func=run)
 
@@ -25,8 +26,6 @@ def run(args: argparse.Namespace) -> int:
     """Load the plugins and serve until interrupted."""
     from brdflab.cli.options import load_plugins
 
-    if not 0 < args.port < 65536:
-        raise BrdflabError(f"--port must be in 1 … 65535, got {args.port}")
     load_plugins(args)
     try:
         from brdflab.viz.explore import serve
