@@ -36,10 +36,10 @@ def _albedo_plot(bat: Battery, path: Path) -> None:
     fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 3.8), dpi=100, squeeze=False)
     for ax, name in zip(axes[0], names, strict=True):
         pts = [p for p in bat.albedo if p.name == name]
-        for a in sorted({p.alpha for p in pts}):
+        for a in sorted({p.alpha for p in pts}, key=lambda a: -1.0 if a is None else a):
             row = sorted((p for p in pts if p.alpha == a), key=lambda p: p.theta)
             th = [p.theta for p in row]
-            line, = ax.plot(th, [p.quadrature for p in row], "-", label=f"α = {a:g}")
+            line, = ax.plot(th, [p.quadrature for p in row], "-", label="ρ" if a is None else f"α = {a:g}")
             ax.errorbar(th, [p.monte_carlo for p in row], yerr=[2 * p.mc_stderr for p in row], fmt="o", ms=2.5,
                         color=line.get_color())
         ax.axhline(1.0, color="k", lw=0.6, ls="--")
@@ -131,11 +131,13 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
         _albedo_plot(bat, out / "albedo.png")
         loss = []
         for name in sorted({p.name for p in bat.albedo}):
-            pts = [p for p in bat.albedo if p.name == name and p.alpha == max(q.alpha for q in bat.albedo)]
+            alphas = [q.alpha for q in bat.albedo if q.name == name and q.alpha is not None]
+            pts = [p for p in bat.albedo if p.name == name and p.alpha == (max(alphas) if alphas else None)]
             for th in (0.0, 60.0):
                 p = next((q for q in pts if q.theta == th), None)
                 if p:
-                    loss.append(f"{name}, α = {p.alpha:g}, θ_i = {th:g}°: ρ = {p.quadrature:.3f} "
+                    a_txt = "" if p.alpha is None else f"α = {p.alpha:g}, "
+                    loss.append(f"{name}, {a_txt}θ_i = {th:g}°: ρ = {p.quadrature:.3f} "
                                 f"(energy lost by single scattering: {100 * (1 - p.quadrature):.1f} %)")
         albedo = {"png": out / "albedo.png", "loss": loss,
                   "verdict": f"All {len(bat.albedo)} points: ρ ≤ 1 and quadrature = Monte Carlo within 4σ: "

@@ -1,9 +1,24 @@
-"""Statistical validation of materials and warps: chi-square, consistency, furnace, stability.
+"""Statistical validation of materials and warps — for the built-in BSDFs and for any user's BSDF.
 
-The functions below are the public face of the checks (``bl.chi2_test`` …): they take any
-:class:`brdflab.BSDF` — built-in or a user's — and return result objects, never printouts. Each test draws
-from its own random stream: without an explicit ``seed`` it is derived from the test's identity (the
-BSDF's type and parameters, the angle, the check), so two configurations never share random numbers.
+Every check is a function with keyword parameters that returns a result object (dataclasses with
+``passed``, ``message``, the seed and the parameters), never a printout:
+
+==========================  =================================================================================
+function                    checks
+==========================  =================================================================================
+:func:`chi2_test`           ``sample`` against ``pdf`` (Pearson on pilot-placed, equal-probability bins)
+:func:`consistency_test`    weight = eval·cos/pdf, sampled pdf = pdf(), ∫ pdf ≤ 1, reciprocity, finiteness
+:func:`furnace_test`        directional albedo by quadrature and Monte Carlo agree; energy ≤ 1
+:func:`stability_test`      extreme directions give no NaN, infinity, negative value or exception
+:func:`run_battery`         all of them over α/θ (and a plugin's declared ``sweep``) grids
+:func:`check_samples`       a file of samples from another renderer against brdflab's pdf (see
+                            :mod:`brdflab.validate.external`)
+==========================  =================================================================================
+
+Each test draws from its own random stream: the default seed is derived from the test's identity (BSDF
+type, parameters, θ, which test; :func:`~brdflab.validate.seeding.test_seed`). A BSDF that raises, returns
+wrong shapes, NaN/inf or negative values gets a failed result naming the method, the parameters and the
+first offending directions (:class:`~brdflab.validate.guard.CheckedBSDF`).
 """
 
 from __future__ import annotations
@@ -13,6 +28,15 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from brdflab.validate import chi2 as _c2
+from brdflab.validate.battery import Battery, BSDFEntry, run_battery
+from brdflab.validate.chi2 import SIGNIFICANCE, Chi2Result
+from brdflab.validate.consistency import ConsistencyResult, consistency_test
+from brdflab.validate.furnace import AlbedoPoint, FurnaceResult, furnace_test
+from brdflab.validate.guard import CheckedBSDF, PluginFault
+from brdflab.validate.seeding import bsdf_identity, test_seed
+from brdflab.validate.stability import StabilityResult, StabilityRow, stability_test
 
 
 def default_seed(*parts: Any) -> int:
@@ -30,58 +54,56 @@ def _plain(p: Any) -> Any:
     return p
 
 
-def identity(bsdf: Any) -> tuple:
-    """The BSDF's type name and parameters (its public attributes), for seeds and labels."""
-    attrs = {k: v for k, v in vars(bsdf).items() if not k.startswith("_")}
-    out = []
-    for k, v in sorted(attrs.items()):
-        value = getattr(v, "value", v)  # constant textures
-        if isinstance(value, int | float | str | bool | np.ndarray | tuple | list):
-            out.append((k, _plain(np.asarray(value) if isinstance(value, list | tuple) else value)))
-    return (type(bsdf).type_name or type(bsdf).__name__, tuple(out))
+def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | None = None,
+              threshold: float | None = None, name: str | None = None, params: dict | None = None) -> Chi2Result:
+    """Chi-square goodness of fit of ``bsdf.sample`` against ``bsdf.pdf`` for one incident angle.
 
-
-def chi2_test(bsdf: Any, theta: float = 30.0, samples: int = 200_000, seed: int | None = None,
-              threshold: float | None = None, name: str | None = None):
-    """Chi-square goodness of fit of ``bsdf.sample`` against ``bsdf.pdf`` at incident angle ``theta``.
+    Bins are placed by a pilot sample of the BSDF's own sampler on an independent stream (equal
+    probability wherever the lobe is); expected counts come from integrating ``pdf`` over every bin by
+    adaptive quadrature; failed samples (pdf 0) form one more category whose expectation is 1 − ∫ p dω.
+    See :mod:`brdflab.validate.chi2`.
 
     Parameters
     ----------
     bsdf
-        Any :class:`brdflab.BSDF`.
+        Any :class:`brdflab.BSDF`, a user's plugin included.
     theta
-        Incident angle from the normal, degrees (ω_i in the x–z plane).
+        Incident angle θ_i in degrees (ω_i in the x–z plane).
     samples
-        Number of sampled directions.
+        Number of observed samples (the pilot adds a quarter more).
     seed
-        Random seed; default derived from the BSDF's type, parameters and ``theta``.
+        Default: derived from the BSDF's type, its parameters and θ, so that two configurations never share
+        random numbers.
     threshold
-        Reject when p ≤ threshold (default 0.01; correct it for the number of tests you run).
-    name
-        Label of the result (default: the BSDF's type name).
+        Per-test significance (the test passes when p > threshold).
+    name, params
+        For messages (default: the type name and the BSDF's scalar attributes).
 
     Returns
     -------
     Chi2Result
-        ``statistic``, ``dof``, ``p_value``, ``passed``, the ``observed`` and ``expected`` histograms.
+        Statistic, dof, p-value, ``passed``, the observed and expected histograms, the seed, ``message``.
 
     Examples
     --------
-    >>> import brdflab as bl
-    >>> r = bl.chi2_test(bl.RoughConductor(R0=0.9, alpha=0.2), theta=45, samples=50_000)
-    >>> r.passed, r.dof > 100
+    >>> import brdflab.validate as v
+    >>> from brdflab.bsdf.roughconductor import RoughConductor
+    >>> r = v.chi2_test(RoughConductor(R0=0.5, alpha=0.1), theta=30.0, samples=20_000)
+    >>> r.passed, r.observed.shape == r.expected.shape
     (True, True)
     """
-    from brdflab.validate import chi2 as c2
+    from brdflab.validate.guard import bsdf_params, describe
 
-    seed = default_seed("chi2", identity(bsdf), theta) if seed is None else seed
-    label = name or type(bsdf).type_name or type(bsdf).__name__
-    return c2.bsdf_test(label, bsdf, float(theta), int(samples), seed=seed, params={"theta": theta},
-                        threshold=c2.SIGNIFICANCE if threshold is None else threshold)
+    params = dict(params if params is not None else bsdf_params(bsdf))
+    name = name or describe(bsdf)
+    if seed is None:
+        seed = test_seed("chi2", bsdf_identity(bsdf), params, float(theta))
+    return _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
+                         threshold=SIGNIFICANCE if threshold is None else threshold)
 
 
 def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: int | None = None,
-                   threshold: float | None = None, name: str = "warp"):
+                   threshold: float | None = None, name: str = "warp") -> Chi2Result:
     """Chi-square test of a square-to-sphere warp ``warp(u) -> (N, 3)`` against ``pdf(w) -> (N,)``.
 
     Examples
@@ -92,66 +114,16 @@ def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: 
     >>> r.passed
     True
     """
-    from brdflab.validate import chi2 as c2
-
-    seed = default_seed("warp", name) if seed is None else seed
-    return c2.warp_test(name, warp, pdf, int(samples), seed=seed,
-                        threshold=c2.SIGNIFICANCE if threshold is None else threshold)
+    seed = test_seed("warp", name) if seed is None else seed
+    return _c2.warp_test(name, warp, pdf, int(samples), seed=seed,
+                         threshold=SIGNIFICANCE if threshold is None else threshold)
 
 
-def consistency_test(bsdf: Any, theta: float = 30.0, samples: int = 100_000, seed: int | None = None,
-                     name: str | None = None):
-    """Weight = eval·cos/pdf, ∫ pdf ≤ 1 (= the valid fraction), reciprocity, no negative or non-finite value.
+def check_samples(*args, **kwargs):
+    """Chi-square and pdf/weight comparison of external samples (:func:`brdflab.validate.external.check_samples`)."""
+    from brdflab.validate.external import check_samples as _check
 
-    Examples
-    --------
-    >>> import brdflab as bl
-    >>> bl.consistency_test(bl.Diffuse(albedo=0.5), theta=20, samples=20_000).passed
-    True
-    """
-    from brdflab.validate import consistency
-
-    seed = default_seed("consistency", identity(bsdf), theta) if seed is None else seed
-    return consistency.check_bsdf(name or type(bsdf).type_name, bsdf, float(theta), n=int(samples), seed=seed)
-
-
-def furnace_test(bsdf: Any, thetas: tuple[float, ...] = (0.0, 30.0, 60.0, 85.0), samples: int = 50_000,
-                 seed: int | None = None, name: str | None = None) -> list:
-    """Directional albedo ρ(θ_i) by quadrature and by Monte Carlo (with its standard error), per angle.
-
-    Each point passes when ρ ≤ 1 and the two estimates agree within their error.
-
-    Examples
-    --------
-    >>> import brdflab as bl
-    >>> pts = bl.furnace_test(bl.RoughConductor(R0=1.0, alpha=0.3), thetas=(0.0, 60.0), samples=20_000)
-    >>> [p.passed for p in pts]
-    [True, True]
-    """
-    from brdflab.validate import furnace
-
-    seed = default_seed("furnace", identity(bsdf)) if seed is None else seed
-    alpha = float(getattr(bsdf, "alpha_value", 0.0))
-    out = []
-    for k, th in enumerate(thetas):
-        q = furnace.albedo_quadrature(bsdf, float(th), alpha)
-        m, se = furnace.albedo_monte_carlo(bsdf, float(th), int(samples), seed=seed + k)
-        out.append(furnace.AlbedoPoint(name or type(bsdf).type_name, alpha, float(th), q, m, se))
-    return out
-
-
-def stability_test(seed: int = 0) -> list:
-    """The stiff cases (α → 0, grazing, ω_i = ω_o, tangent ω_o, extreme IORs) of the built-in materials."""
-    from brdflab.validate import stability
-
-    return stability.run(seed)
-
-
-def run_battery(*args: Any, **kwargs: Any):
-    """The whole battery (what ``brdflab validate`` runs); see :func:`brdflab.validate.battery.run_battery`."""
-    from brdflab.validate.battery import run_battery as _run
-
-    return _run(*args, **kwargs)
+    return _check(*args, **kwargs)
 
 
 def emitter_checks(scene, n: int = 100_000, seed: int = 0) -> tuple[list, list]:
@@ -179,3 +151,9 @@ def estimator_agreement(path: Any, **kwargs: Any):
     from brdflab.validate.agreement import estimator_agreement as _agree
 
     return _agree(path, **kwargs)
+
+
+__all__ = ["AlbedoPoint", "BSDFEntry", "Battery", "CheckedBSDF", "Chi2Result", "ConsistencyResult", "FurnaceResult",
+           "PluginFault", "SIGNIFICANCE", "StabilityResult", "StabilityRow", "check_samples", "chi2_test",
+           "consistency_test", "default_seed", "furnace_test", "run_battery", "stability_test", "test_seed",
+           "warp_chi2_test", "emitter_checks", "estimator_agreement"]

@@ -1,13 +1,20 @@
 """The validation battery: every warp and BSDF through chi-square, consistency, furnace and stability.
 
 :func:`run_battery` returns a :class:`Battery` that the CLI prints and
-:mod:`brdflab.report.validation` turns into an HTML report. The chi-square tests share one family-wise
+:mod:`brdflab.report.validation` turns into an HTML report. It runs on the built-in BSDFs or on any
+BSDFs given to it (a user's plugin): names (built-in, or resolved by the plugin registry
+``brdflab.plugins.make_bsdf``), BSDF instances, classes, ``(name, factory(alpha, params))`` pairs,
+:class:`BSDFEntry` objects, or names with a ``make(name, alpha, params)`` callable. A BSDF without an
+``alpha`` parameter is swept over θ only; a class attribute ``sweep = {"exponent": [5, 20, 100]}`` adds
+its grid to the sweep (parameters given explicitly are not swept). The chi-square tests share one family-wise
 significance of 0.01 (Šidák-corrected for their number). A **negative control** — the rough conductor
 with its pdf missing the 1/(4|ω_o·ω_h|) Jacobian — must be rejected, or the harness itself is broken.
 """
 
 from __future__ import annotations
 
+import inspect
+import itertools
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -21,6 +28,8 @@ from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.math import warps
 from brdflab.validate import chi2 as c2
 from brdflab.validate import consistency, furnace, stability
+from brdflab.validate.guard import describe
+from brdflab.validate.seeding import test_seed
 
 ALPHAS = (1e-3, 0.005, 0.05, 0.1, 0.3, 0.5, 1.0)
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
@@ -89,6 +98,116 @@ def _seed(*parts) -> int:
 
 
 @dataclass
+class BSDFEntry:
+    """A BSDF the battery can run: how to build it and what to sweep.
+
+    Attributes
+    ----------
+    name
+        Display name (``type_name`` for plugins; ``roughsubstrate/specular`` for a lobe variant).
+    factory
+        ``factory(alpha, params) -> BSDF``; ``alpha`` is None for a BSDF without roughness.
+    takes_alpha
+        Sweep α (the battery's ``alphas``) as well as θ.
+    sweep
+        Extra parameter grid, e.g. ``{"exponent": [5, 20, 100]}`` (from the class attribute ``sweep``).
+    checks
+        Run consistency and furnace on this entry (False for lobe variants: chi-square only).
+    furnace_params
+        Parameters overriding ``params`` for the white furnace (built-ins: R0 = 1, k_d = 1, albedo = 1).
+    """
+
+    name: str
+    factory: Callable
+    takes_alpha: bool = False
+    sweep: dict = field(default_factory=dict)
+    checks: bool = True
+    furnace_params: dict = field(default_factory=dict)
+    #: Built from a name by the registry (can be rebuilt on cluster workers).
+    by_name: bool = False
+
+    def make(self, alpha: float | None, params: dict | None = None):
+        """Build the BSDF (``alpha`` ignored without roughness)."""
+        return self.factory(alpha if self.takes_alpha else None, dict(params or {}))
+
+    def grid(self, params: dict | None = None) -> list[dict]:
+        """Parameter points of the sweep (the product of :attr:`sweep`, minus explicitly given keys)."""
+        axes = {k: list(v) for k, v in self.sweep.items() if k not in (params or {})}
+        if not axes:
+            return [{}]
+        return [dict(zip(axes, vals, strict=True)) for vals in itertools.product(*axes.values())]
+
+
+def _builtin(name: str) -> BSDFEntry:
+    furn = {"diffuse": {"albedo": 1.0}, "roughconductor": {"R0": 1.0}, "roughsubstrate": {"kd": 1.0}}
+    return BSDFEntry(name, lambda a, p: make_named_bsdf(name, a, p), takes_alpha=has_alpha(name),
+                     checks="/" not in name, furnace_params=furn.get(name, {}), by_name=True)
+
+
+def _takes_alpha(cls) -> bool:
+    try:
+        return "alpha" in inspect.signature(cls.__init__).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def _class_entry(name: str, cls, factory: Callable) -> BSDFEntry:
+    return BSDFEntry(name, factory, takes_alpha=_takes_alpha(cls), sweep=dict(getattr(cls, "sweep", None) or {}))
+
+
+def _from_class(cls) -> BSDFEntry:
+    takes = _takes_alpha(cls)
+
+    def factory(a, p):
+        return cls(**({"alpha": a} if takes and a is not None else {}), **p)
+
+    return _class_entry(getattr(cls, "type_name", "") or cls.__name__, cls, factory)
+
+
+def _from_registry(name: str, make: Callable | None) -> BSDFEntry:
+    if make is not None:
+        proto = make(name, None, {})
+        return _class_entry(name, type(proto), lambda a, p: make(name, a, p))
+    from brdflab import plugins
+
+    entry = _class_entry(name, plugins.bsdf_class(name.partition("/")[0]), lambda a, p: make_named_bsdf(name, a, p))
+    entry.takes_alpha = has_alpha(name)
+    entry.checks = "/" not in name
+    entry.by_name = True
+    return entry
+
+
+def resolve_bsdfs(bsdfs=None, make: Callable | None = None) -> list[BSDFEntry]:
+    """Battery entries for ``bsdfs`` (see the module docstring); None: every built-in BSDF and lobe variant."""
+    if bsdfs is None:
+        return [_builtin(n) for n in BSDFS]
+    if isinstance(bsdfs, dict):
+        bsdfs = list(bsdfs.items())
+    out = []
+    for item in bsdfs:
+        if isinstance(item, BSDFEntry):
+            out.append(item)
+        elif isinstance(item, str):
+            out.append(_builtin(item) if item in BSDFS and make is None else _from_registry(item, make))
+        elif isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str):
+            name, fac = item
+            if isinstance(fac, type):
+                e = _from_class(fac)
+                e.name = name
+                out.append(e)
+            else:
+                proto = fac(None, {})
+                out.append(_class_entry(name, type(proto), fac))
+        elif isinstance(item, type):
+            out.append(_from_class(item))
+        elif hasattr(item, "sample") and hasattr(item, "pdf"):
+            out.append(BSDFEntry(describe(item), lambda a, p, b=item: b, takes_alpha=False))
+        else:
+            raise TypeError(f"cannot run the battery on {item!r}: expected a name, a BSDF, a class or (name, factory)")
+    return out
+
+
+@dataclass
 class Battery:
     """All results of a validation run."""
 
@@ -124,14 +243,14 @@ class Battery:
 
     def failures(self) -> list[str]:
         """Human-readable list of what failed."""
-        out = [f"chi2 {r.name} {r.params}: p = {r.p_value:.3g} ≤ {r.threshold:.2g}" for r in self.chi2 if not r.passed]
+        out = [r.message or f"chi2 {r.name} {r.params}: p = {r.p_value:.3g} ≤ {r.threshold:.2g}"
+               for r in self.chi2 if not r.passed]
         out += [f"negative control {r.name} {r.params} was NOT rejected (p = {r.p_value:.3g})"
                 for r in self.negative_control if r.passed]
-        out += [f"consistency {r.name} θ={r.theta}: {r}" for r in self.consistency if not r.passed]
-        out += [f"albedo {p.name} α={p.alpha} θ={p.theta}: quad {p.quadrature:.4f} MC {p.monte_carlo:.4f}"
+        out += [r.message or f"consistency {r.name} θ={r.theta}: {r}" for r in self.consistency if not r.passed]
+        out += [p.message or f"albedo {p.name} α={p.alpha} θ={p.theta}: quad {p.quadrature:.4f} MC {p.monte_carlo:.4f}"
                 for p in self.albedo if not p.passed]
-        out += [f"stability {r.material} / {r.case}: {r.nan} NaN, {r.inf} inf, {r.negative} negative"
-                for r in self.stability if not r.passed]
+        out += [r.message for r in self.stability if not r.passed]
         out += [f"emitter chi2 {r.name}: p = {r.p_value:.3g} ≤ {r.threshold:.2g}" for r in self.emitter_chi2
                 if not r.passed]
         out += [f"emitter pdf {r.name}: {r.compared} samples, max rel. error {r.max_rel_error:.3g}"
@@ -143,14 +262,19 @@ class Battery:
         return out
 
 
-def plan(bsdfs: list[str] | None = None, warp_names: list[str] | None = None, alphas=ALPHAS, thetas=THETAS,
-         params: dict | None = None) -> list[tuple]:
-    """The chi-square tests to run: ('bsdf', name, α, θ) and ('warp', name, α)."""
+def plan(bsdfs=None, warp_names: list[str] | None = None, alphas=ALPHAS, thetas=THETAS,
+         params: dict | None = None, make: Callable | None = None) -> list[tuple]:
+    """The chi-square tests to run: ('bsdf', name, α, θ[, sweep params]) and ('warp', name, α, None).
+
+    ``bsdfs`` as for :func:`resolve_bsdfs`; α is None for a BSDF without roughness; a fifth element holds
+    the point of the BSDF's declared ``sweep`` grid, when it has one.
+    """
     tests: list[tuple] = []
-    for name in bsdfs if bsdfs is not None else list(BSDFS):
-        for a in (alphas if has_alpha(name) else (None,)):
-            for t in thetas:
-                tests.append(("bsdf", name, a, t))
+    for entry in resolve_bsdfs(bsdfs, make):
+        for point in entry.grid(params):
+            for a in (alphas if entry.takes_alpha else (None,)):
+                for t in thetas:
+                    tests.append(("bsdf", entry.name, a, t, point) if point else ("bsdf", entry.name, a, t))
     for name in warp_names if warp_names is not None else list(WARPS) + list(POINT_WARPS):
         if name in WARPS and WARPS[name][2]:
             tests.extend(("warp", name, a, None) for a in alphas)
@@ -159,49 +283,85 @@ def plan(bsdfs: list[str] | None = None, warp_names: list[str] | None = None, al
     return tests
 
 
+def _entries_by_name(bsdfs, make) -> dict[str, BSDFEntry]:
+    return {e.name: e for e in resolve_bsdfs(bsdfs, make)}
+
+
 def run_chi2(tests: list[tuple], n: int, threshold: float, params: dict | None = None,
-             progress: Callable[[str], None] | None = None, cluster=None) -> list[c2.Chi2Result]:
-    """Run the planned chi-square tests at the given per-test threshold, here or on ``cluster`` (one job
-    per test; each test draws from its own seeded stream, so the results do not depend on placement)."""
+             progress: Callable[[str], None] | None = None, cluster=None, bsdfs=None,
+             make: Callable | None = None) -> list[c2.Chi2Result]:
+    """Run the planned chi-square tests at the given per-test threshold, here or on ``cluster``.
+
+    ``bsdfs``/``make`` resolve the names of the plan (default: built-ins, then the plugin registry). On a
+    cluster each test is one job (its own seeded stream, so the results do not depend on placement); BSDFs
+    given as objects or factories (not by name) cannot travel and run here.
+    """
     from brdflab.cluster import iter_jobs, user_bsdf_classes
 
     params = params or {}
-    shipped = user_bsdf_classes()
-    jobs = [(kind, name, a, t, n, threshold, params, shipped) for kind, name, a, t in tests]
+    entries = _entries_by_name(bsdfs, make) if bsdfs is not None else {}
+    jobs = [(kind, name, a, t, n, threshold, {**params, **(rest[0] if rest else {})})
+            for kind, name, a, t, *rest in tests]
+    if cluster is not None and make is None and all(e.by_name for e in entries.values()):
+        shipped = user_bsdf_classes()
+        results = iter_jobs(chi2_job, [(*j, shipped) for j in jobs], cluster)
+    else:
+        results = (_chi2_one(*j, entries.get(j[1]), make) for j in jobs)
     out = []
-    for r in iter_jobs(chi2_job, jobs, cluster):
+    for r in results:
         out.append(r)
         if progress:
-            progress(f"{'PASS' if r.passed else 'FAIL'}  chi2 {r.name:24s} {_fmt(r.params):28s} p = {r.p_value:.4f}")
+            progress(f"{'PASS' if r.passed else 'FAIL'}  chi2 {r.name:24s} {_fmt(r.params):28s} p = {r.p_value:.4f}"
+                     + (f"  {r.fault}" if r.fault else ""))
     return out
+
+
+def _chi2_one(kind: str, name: str, a, t, n: int, threshold: float, prm: dict, entry: BSDFEntry | None = None,
+              make: Callable | None = None) -> c2.Chi2Result:
+    """One planned chi-square test (``prm``: parameters with the sweep point), with its own seed."""
+    if kind == "bsdf":
+        entry = entry or resolve_bsdfs([name], make)[0]
+        seed = test_seed("chi2", name, a, t, prm)
+        shown = {"alpha": a, "theta": t, **prm} if a is not None else {"theta": t, **prm}
+        try:
+            bsdf = entry.make(a, prm)
+        except Exception as exc:  # a plugin's constructor: a verdict, not a traceback
+            return c2.faulted(name, shown, f"{name}({_fmt(prm)}) raised {type(exc).__name__}: {exc}", seed,
+                              threshold, n)
+        return c2.bsdf_test(name, bsdf, t, n, seed=seed, params=shown, threshold=threshold)
+    if name in POINT_WARPS:
+        w, p, bounds = POINT_WARPS[name]
+        return c2.point_warp_test(name, w, p, bounds, n, seed=_seed(kind, name, a, t), params={}, threshold=threshold)
+    w, p, takes_alpha = WARPS[name]
+    if takes_alpha:
+        w_, p_ = (lambda u, a=a, w=w: w(u, a)), (lambda d, a=a, p=p: p(d, a))
+    else:
+        w_, p_ = w, p
+    return c2.warp_test(name, w_, p_, n, seed=_seed(kind, name, a, t), params={"alpha": a} if takes_alpha else {},
+                        threshold=threshold)
 
 
 def chi2_job(job: tuple) -> c2.Chi2Result:
     """One chi-square test from its descriptor (kind, name, α, θ, samples, threshold, params, user BSDF
-    classes to register first): what :func:`run_chi2` maps over, in this process or on cluster workers."""
+    classes to register first): what :func:`run_chi2` maps over on cluster workers (BSDFs by name)."""
     from brdflab.cluster import register_user_bsdfs
 
     kind, name, a, t, n, threshold, params, shipped = job
     register_user_bsdfs(shipped)
-    # Parameters are part of a test's identity (only when given, so the built-in battery keeps its streams).
-    seed = _seed(kind, name, a, t, *sorted((k, repr(v)) for k, v in params.items()))
-    if kind == "bsdf":
-        bsdf = make_named_bsdf(name, a, params)
-        axis = np.array([0.0, 0.0, 1.0]) if name in ("diffuse", "roughsubstrate/diffuse") else None
-        r = c2.bsdf_test(name, bsdf, t, n, seed=seed, params={"alpha": a, "theta": t, **params},
-                         threshold=threshold, axis=axis)
-    elif name in POINT_WARPS:
-        w, p, bounds = POINT_WARPS[name]
-        r = c2.point_warp_test(name, w, p, bounds, n, seed=seed, params={}, threshold=threshold)
-    else:
-        w, p, takes_alpha = WARPS[name]
-        if takes_alpha:
-            w_, p_ = (lambda u, a=a, w=w: w(u, a)), (lambda d, a=a, p=p: p(d, a))
-        else:
-            w_, p_ = w, p
-        r = c2.warp_test(name, w_, p_, n, seed=seed, params={"alpha": a} if takes_alpha else {},
-                         threshold=threshold)
-    return r
+    return _chi2_one(kind, name, a, t, n, threshold, params)
+
+
+def _consistency_one(name: str, a, t, n: int, prm: dict, entry: BSDFEntry | None = None):
+    """One consistency check of a battery entry, with its own seed (a constructor error is a verdict)."""
+    entry = entry or resolve_bsdfs([name])[0]
+    label = _label(name, a, {k: v for k, v in prm.items() if k in entry.sweep})
+    try:
+        b = entry.make(a, prm)
+    except Exception as exc:
+        b = _Raising(f"{label} raised {type(exc).__name__}: {exc}")
+    return consistency.consistency_test(b, theta=t, samples=n, name=label,
+                                        params={"alpha": a, **prm} if a is not None else dict(prm),
+                                        seed=test_seed("consistency", name, a, t, prm))
 
 
 def consistency_job(job: tuple) -> consistency.ConsistencyResult:
@@ -210,30 +370,74 @@ def consistency_job(job: tuple) -> consistency.ConsistencyResult:
 
     name, a, t, n, params, shipped = job
     register_user_bsdfs(shipped)
-    return consistency.check_bsdf(f"{name} α={a}", make_named_bsdf(name, a, params), t, n=n,
-                                  seed=_seed("cons", name, a, t))
+    return _consistency_one(name, a, t, n, params)
 
 
 def _fmt(params: dict) -> str:
     return " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items() if v is not None)
 
 
-def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: list[str] | None = None,
+def _label(name: str, a: float | None, point: dict) -> str:
+    bits = ([f"α={a:g}"] if a is not None else []) + [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                                      for k, v in point.items()]
+    return " ".join([name, *bits])
+
+
+def _stability_materials(entries: list[BSDFEntry], params: dict) -> dict[str, object]:
+    builtin = stability.materials()
+    out = {}
+    for e in entries:
+        if not e.checks:
+            continue
+        if e.name in BSDFS:
+            out.update({k: v for k, v in builtin.items() if k.split()[0] == e.name})
+            continue
+        for point in e.grid(params):
+            for a in ((1e-4, 1e-3, 0.5, 1.0) if e.takes_alpha else (None,)):
+                label = _label(e.name, a, point)
+                try:
+                    out[label] = e.make(a, {**params, **point})
+                except Exception as exc:  # reported as a failed stability row
+                    out[label] = _Raising(f"{label} raised {type(exc).__name__}: {exc}")
+    return out
+
+
+class _Raising:
+    """Stand-in for a BSDF whose constructor raised: every method raises the same error."""
+
+    type_name = "unconstructible"
+
+    def __init__(self, msg: str) -> None:
+        self.msg = msg
+
+    def _raise(self, *args):
+        raise RuntimeError(self.msg)
+
+    eval = pdf = sample = _raise
+
+
+def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = None,
                 alphas=ALPHAS, thetas=THETAS, params: dict | None = None, full: bool = True,
                 progress: Callable[[str], None] | None = None, light_transport: bool | None = None,
-                cluster=None) -> Battery:
-    """Run the battery.
+                cluster=None, make: Callable | None = None,
+                consistency_thetas=(0.0, 45.0, 85.0), consistency_alphas=(1e-3, 0.1, 1.0),
+                furnace_alphas=FURNACE_ALPHAS, furnace_thetas=FURNACE_THETAS) -> Battery:
+    """Run the battery on the built-in BSDFs or on any BSDFs given (a user's plugin).
 
     Parameters
     ----------
     n
-        Samples per chi-square test.
-    bsdfs, warp_names
-        Which BSDFs and warps (default: all).
+        Samples per chi-square test (consistency uses min(n, 200 000), furnace min(n, 100 000)/2).
+    bsdfs
+        None (every built-in BSDF and lobe variant), or a list of names (built-in or registered plugin
+        types), BSDF instances, BSDF classes, ``(name, factory(alpha, params))`` pairs or
+        :class:`BSDFEntry` objects (see :func:`resolve_bsdfs`).
+    warp_names
+        Which warps (default: all; ``[]`` for none).
     alphas, thetas
-        Roughness values and incident angles (degrees).
+        Roughness values (for BSDFs with an ``alpha`` parameter) and incident angles (degrees).
     params
-        Extra material parameters (e.g. ``R0``, ``kd``, ``intIOR``).
+        Material parameters given to every BSDF (e.g. ``{"R0": 0.9}``); keys given here are not swept.
     full
         Also run the consistency, furnace and stability checks and the negative control.
     light_transport
@@ -242,13 +446,33 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
     cluster
         A :class:`brdflab.cluster.Cluster` (or address) to run the chi-square tests and consistency checks
         on, one job each (same verdicts and p-values as here: every test has its own random stream).
-    """
-    from brdflab.cluster import iter_jobs, user_bsdf_classes
+    progress
+        Called with one line per result.
+    make
+        ``make(name, alpha, params) -> BSDF`` to build BSDFs given by name (default: built-ins, then the
+        plugin registry).
+    consistency_thetas, consistency_alphas, furnace_alphas, furnace_thetas
+        Grids of the consistency and furnace checks.
 
-    tests = plan(bsdfs, warp_names, alphas, thetas)
+    Returns
+    -------
+    Battery
+        ``passed`` when everything passed and the negative control was rejected; ``failures()`` says what not.
+
+    Examples
+    --------
+    >>> import brdflab.validate as v
+    >>> from brdflab.bsdf.diffuse import Diffuse
+    >>> bat = v.run_battery(n=5_000, bsdfs=[Diffuse(0.5)], warp_names=[], thetas=(0.0, 60.0), full=False)
+    >>> len(bat.chi2), bat.passed
+    (2, True)
+    """
+    params = dict(params or {})
+    entries = resolve_bsdfs(bsdfs, make)
+    tests = plan(entries, warp_names, alphas, thetas, params)
     threshold = c2.sidak(c2.SIGNIFICANCE, len(tests))
     bat = Battery(threshold=threshold)
-    bat.chi2 = run_chi2(tests, n, threshold, params, progress, cluster)
+    bat.chi2 = run_chi2(tests, n, threshold, params, progress, cluster, bsdfs=entries, make=make)
     if not full:
         return bat
     for t in (30.0, 60.0):
@@ -258,32 +482,52 @@ def run_battery(n: int = 200_000, bsdfs: list[str] | None = None, warp_names: li
         if progress:
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control θ={t:g}: "
                      f"p = {r.p_value:.3g}")
-    names = bsdfs if bsdfs is not None else ["diffuse", "roughconductor", "roughsubstrate"]
-    shipped = user_bsdf_classes()
-    jobs = [(name, a, t, min(n, 200_000), params, shipped) for name in names if "/" not in name
-            for a in ((1e-3, 0.1, 1.0) if has_alpha(name) else (None,)) for t in (0.0, 45.0, 85.0)]
-    for r in iter_jobs(consistency_job, jobs, cluster):
+    checked_entries = [e for e in entries if e.checks]
+    cjobs = [(e.name, a, t, min(n, 200_000), {**params, **point}) for e in checked_entries for point in e.grid(params)
+             for a in (consistency_alphas if e.takes_alpha else (None,)) for t in consistency_thetas]
+    if cluster is not None and make is None and all(e.by_name for e in checked_entries):
+        from brdflab.cluster import iter_jobs, user_bsdf_classes
+
+        shipped = user_bsdf_classes()
+        cres = iter_jobs(consistency_job, [(*j, shipped) for j in cjobs], cluster)
+    else:
+        by_name = {e.name: e for e in checked_entries}
+        cres = (_consistency_one(*j, by_name[j[0]]) for j in cjobs)
+    for r in cres:
         bat.consistency.append(r)
         if progress:
-            progress(f"{'PASS' if r.passed else 'FAIL'}  consistency {r.name} θ={r.theta:g}: weight err "
-                     f"{r.max_weight_error:.1e}, ∫pdf {r.pdf_integral:.4f} (valid {r.valid_fraction:.4f}), "
-                     f"reciprocity {r.max_reciprocity_error:.1e}")
-    for name, make in (("roughconductor R0=1", lambda a: RoughConductor(1.0, a)),
-                       ("roughsubstrate kd=1", lambda a: RoughSubstrate(1.0, a))):
-        if bsdfs is not None and name.split()[0] not in bsdfs:
-            continue
-        for a in FURNACE_ALPHAS:
-            bat.albedo.extend(furnace.albedo_curve(name, make, a, list(FURNACE_THETAS), n=min(n, 100_000) // 2))
+            progress(r.message)
+    for e in checked_entries:
+        for point in e.grid(params):
+            prm = {**params, **point, **e.furnace_params}
+            fname = " ".join([e.name, *(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in {**point, **e.furnace_params}.items())])
+            for a in (furnace_alphas if e.takes_alpha else (None,)):
+                try:
+                    e.make(a, prm)
+                    pts = furnace.albedo_curve(fname, lambda a, e=e, prm=prm: e.make(a, prm), a,
+                                               list(furnace_thetas), n=min(n, 100_000) // 2, params=prm)
+                except Exception as exc:
+                    pts = [furnace.AlbedoPoint(fname, a, 0.0, float("nan"), float("nan"), float("nan"),
+                                               fault=f"{fname} raised {type(exc).__name__}: {exc}")]
+                    pts[0].message = pts[0].summary()
+                bat.albedo.extend(pts)
     if progress and bat.albedo:
-        worst = min(bat.albedo, key=lambda p: p.quadrature)
+        finite = [p for p in bat.albedo if np.isfinite(p.quadrature)] or bat.albedo
+        worst = min(finite, key=lambda p: p.quadrature)
         progress(f"{'PASS' if all(p.passed for p in bat.albedo) else 'FAIL'}  furnace: {len(bat.albedo)} albedo "
-                 f"points, max ρ {max(p.quadrature for p in bat.albedo):.4f}, min ρ {worst.quadrature:.4f} "
+                 f"points, max ρ {max(p.quadrature for p in finite):.4f}, min ρ {worst.quadrature:.4f} "
                  f"({worst.name}, α={worst.alpha}, θ={worst.theta:g})")
-    bat.stability = stability.run()
+        for p in bat.albedo:
+            if not p.passed:
+                progress(p.message)
+    bat.stability = stability.run() if bsdfs is None else stability.run(bsdfs=_stability_materials(entries, params))
     if progress:
         bad = [r for r in bat.stability if not r.passed]
         progress(f"{'PASS' if not bad else 'FAIL'}  stability: {len(bat.stability)} extreme cases, {len(bad)} with "
-                 "NaN/inf/negative values")
+                 "NaN/inf/negative values or errors")
+        for r in bad[:10]:
+            progress(r.message)
     if light_transport or (light_transport is None and bsdfs is None and warp_names is None):
         run_light_transport(bat, min(n, 100_000), progress)
     return bat

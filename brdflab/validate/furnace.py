@@ -1,4 +1,4 @@
-"""White furnace and energy conservation: directional albedo ρ(θ_i) = ∫ f(ω_i, ω_o) cos θ_o dω_o.
+"""White furnace and energy conservation: directional albedo ρ(θ_i) = ∫ f(ω_i, ω_o) cos θ_o dω_o, for any BSDF.
 
 With R0 = 1 (conductor) or k_d = 1 (substrate) a physically plausible model must keep ρ ≤ 1; the
 single-scattering microfacet models lose energy at high roughness (light that would scatter between
@@ -6,96 +6,133 @@ microfacets is dropped), which the report quantifies as 1 − ρ.
 
 Two independent estimates must agree:
 
-* **Quadrature**: the microfacet lobe is integrated over the half-vector domain, where it is smooth,
-  with ω_o = reflect(ω_i, ω_h) and dω_o = 4 |ω_o·ω_h| dω_h; ω_h runs over a Gauss–Legendre grid in the
-  Beckmann-CDF variable s = 1 − exp(−tan²θ_h/α²) (which concentrates nodes where D is large) and in
-  φ_h. The diffuse lobe is integrated over (cos θ_o, φ_o) with Gauss–Legendre.
+* **Quadrature** (no assumption about the lobe): the upper hemisphere is cut into equal-probability bins
+  placed by a pilot sample of the BSDF's own sampler (:func:`brdflab.validate.chi2.pilot_bins`, mixed with
+  uniform directions), and luminance(f)·cos θ_o is integrated over every bin by the adaptive Gauss–Legendre
+  quadrature of :func:`brdflab.validate.chi2.integrate_sphere_bins` (cells graded towards the lobe, split
+  until the 4- and 8-point rules agree), which also gives an error estimate. The sampler only decides
+  where the cells are fine; the value comes from ``eval`` alone.
 * **Monte Carlo**: the mean of the BSDF's own sample weights f cos θ_o / p, with its standard error.
+
+The check fails — with a message, never silently — when ρ exceeds 1 beyond its uncertainty, or when the
+two estimates differ by more than 4 combined standard errors (+ 5·10⁻⁴): then ``eval``, ``pdf`` and
+``sample`` do not describe the same BSDF (e.g. a sampler that misses part of the lobe, a weight without
+the cosine, an unnormalised lobe).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from brdflab.bsdf.microfacet import beckmann_d, reflect
-from brdflab.validate.chi2 import incident
+from brdflab.validate.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
+from brdflab.validate.guard import CheckedBSDF, PluginFault, describe, format_params
+from brdflab.validate.seeding import bsdf_identity, test_seed
+
+#: Luminance weights (Rec. 709).
+LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 
 
 @dataclass
 class AlbedoPoint:
-    """Directional albedo of one BSDF at one incident angle."""
+    """Directional albedo of one BSDF at one incident angle (the furnace test's result).
+
+    Attributes
+    ----------
+    name, alpha, theta
+        The BSDF, its roughness (None without one) and θ_i in degrees.
+    quadrature, quad_error
+        ρ by adaptive quadrature and the quadrature's error estimate.
+    monte_carlo, mc_stderr
+        ρ as the mean sample weight and its standard error.
+    seed, params
+        The test's seed and the BSDF's parameters.
+    fault
+        Why the check could not run (a plugin broke its contract), or None.
+    message
+        One-line verdict; says which condition failed.
+    """
 
     name: str
-    alpha: float
+    alpha: float | None
     theta: float
     quadrature: float
     monte_carlo: float
     mc_stderr: float
+    quad_error: float = 0.0
+    seed: int | None = None
+    params: dict = field(default_factory=dict)
+    fault: str | None = None
+    message: str = ""
+
+    @property
+    def sigma(self) -> float:
+        """Combined standard error of the difference quadrature − Monte Carlo."""
+        return float(np.hypot(self.mc_stderr, self.quad_error))
+
+    @property
+    def energy_ok(self) -> bool:
+        """ρ ≤ 1: quadrature within 10⁻³ + 3× its error, Monte Carlo within 4σ + 10⁻³."""
+        return (self.quadrature <= 1 + 1e-3 + 3 * self.quad_error
+                and self.monte_carlo <= 1 + 4 * self.mc_stderr + 1e-3)
+
+    @property
+    def agree(self) -> bool:
+        """Quadrature and Monte Carlo agree within 4 combined standard errors + 5·10⁻⁴."""
+        return abs(self.quadrature - self.monte_carlo) <= 4 * self.sigma + 5e-4
 
     @property
     def passed(self) -> bool:
-        """ρ ≤ 1 (quadrature within 10⁻³, Monte Carlo within 4σ) and the estimates agree within 4σ + 10⁻³."""
-        return (self.quadrature <= 1 + 1e-3 and self.monte_carlo <= 1 + 4 * self.mc_stderr + 1e-3
-                and abs(self.quadrature - self.monte_carlo) <= 4 * self.mc_stderr + 1e-3)
+        """No fault, ρ ≤ 1 and the two estimates agree."""
+        return self.fault is None and self.energy_ok and self.agree
+
+    def summary(self) -> str:
+        """One line with both estimates, their uncertainties and the verdict."""
+        head = f"{'PASS' if self.passed else 'FAIL'} furnace {self.name} θ_i={self.theta:g}°"
+        if self.fault:
+            return f"{head}: {self.fault}"
+        s = (f"{head}: ρ quadrature {self.quadrature:.5f} ± {self.quad_error:.1e}, Monte Carlo "
+             f"{self.monte_carlo:.5f} ± {self.mc_stderr:.1e}")
+        if not self.agree:
+            s += (f"; the estimates DISAGREE by {abs(self.quadrature - self.monte_carlo) / max(self.sigma, 1e-12):.0f}σ"
+                  " (eval, pdf and sample do not describe the same BSDF)")
+        if not self.energy_ok:
+            s += "; ρ > 1: the BSDF creates energy"
+        return s
 
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:
-    return rgb @ np.array([0.212671, 0.715160, 0.072169])
+    return rgb @ LUMINANCE
 
 
-def albedo_quadrature(bsdf, theta_deg: float, alpha: float, order: int = 96) -> float:
-    """ρ(θ_i) by quadrature (see module docstring); returns the luminance of the albedo."""
+def albedo_quadrature_with_error(bsdf, theta_deg: float, seed: int = 0, pilot: int = 20_000,
+                                 shape: tuple[int, int] = (16, 24)) -> tuple[float, float]:
+    """ρ(θ_i) (luminance) by adaptive quadrature over pilot-placed bins, and its error estimate."""
+    b = bsdf if isinstance(bsdf, CheckedBSDF) else CheckedBSDF(bsdf)
     wi1 = incident(theta_deg)
-    x, w = np.polynomial.legendre.leggauss(order)
-    total = 0.0
-    lobe = getattr(bsdf, "lobe", "both")
-    # Microfacet part in half-vector space.
-    s = 0.5 * (x + 1)  # (0, 1)
-    phi = np.pi * (x + 1)
-    S, P = np.meshgrid(s, phi, indexing="ij")
-    W = np.outer(w, w).ravel() * 0.5 * np.pi
-    tan2 = -(alpha**2) * np.log1p(-S.ravel())
-    cos_h = 1.0 / np.sqrt(1.0 + tan2)
-    sin_h = np.sqrt(tan2) * cos_h
-    wh = np.stack([sin_h * np.cos(P.ravel()), sin_h * np.sin(P.ravel()), cos_h], axis=1)
-    # The Beckmann warp maps (s, φ/2π) ∈ [0, 1)² to ω_h with solid-angle density p_h = D cos θ_h, so
-    # dω_h = ds (dφ/2π) / p_h and ∫ g dω_h = ∫∫ g / p_h ds dφ / 2π.
-    p_h = beckmann_d(cos_h, alpha) * cos_h
-    wi = np.broadcast_to(wi1, wh.shape)
-    wo = reflect(wi, wh)
-    oh = np.abs((wo * wh).sum(axis=1))
-    valid = (wo[:, 2] > 0) & ((wi * wh).sum(axis=1) > 0) & (p_h > 0)
-    if lobe != "diffuse":
-        spec = _spec_only(bsdf)
-        f = _luminance(spec.eval(np.ascontiguousarray(wi), wo))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = np.where(valid, f * wo[:, 2] * 4.0 * oh / p_h, 0.0)
-        total += float((np.where(np.isfinite(g), g, 0.0) * W).sum() / (2 * np.pi))
-    if lobe != "specular" and hasattr(bsdf, "kd"):
-        diff = _diffuse_only(bsdf)
-        mu = 0.5 * (x + 1)
-        M, P2 = np.meshgrid(mu, phi, indexing="ij")
-        r = np.sqrt(1 - M.ravel() ** 2)
-        wo2 = np.stack([r * np.cos(P2.ravel()), r * np.sin(P2.ravel()), M.ravel()], axis=1)
-        f = _luminance(diff.eval(np.ascontiguousarray(np.broadcast_to(wi1, wo2.shape)), wo2))
-        total += float((f * M.ravel() * W).sum())
-    return total
+    s_pilot, s_mix = np.random.SeedSequence(seed).spawn(2)
+    wi = np.ascontiguousarray(np.broadcast_to(wi1, (pilot, 3)))
+    r = b.sample(wi, np.random.default_rng(s_pilot).random((pilot, 3)))
+    from brdflab.math.warps import square_to_cosine_hemisphere
+
+    mix = square_to_cosine_hemisphere(np.random.default_rng(s_mix).random((pilot // 9, 2)))
+    pts = np.concatenate([r.wo[(r.pdf > 0) & (r.wo[:, 2] > 0)], mix])
+    th, ph = to_angles(pts, np.array([0.0, 0.0, 1.0]))
+    te, pe = pilot_bins(th, ph, *shape)
+    te = np.minimum(te, np.pi / 2)  # f = 0 below the horizon: those strips get zero width
+
+    def integrand(wo):
+        f = b.eval(np.ascontiguousarray(np.broadcast_to(wi1, (len(wo), 3))), wo)
+        return _luminance(f) * np.maximum(wo[:, 2], 0.0)
+
+    val, err = integrate_sphere_bins(integrand, te, pe, n=10**7)
+    return float(val.sum()), float(err.sum())
 
 
-def _spec_only(bsdf):
-    if hasattr(bsdf, "kd"):
-        from brdflab.bsdf.roughsubstrate import RoughSubstrate
-
-        return RoughSubstrate(bsdf.kd, bsdf.alpha, bsdf.int_ior, bsdf.ext_ior, lobe="specular")
-    return bsdf
-
-
-def _diffuse_only(bsdf):
-    from brdflab.bsdf.roughsubstrate import RoughSubstrate
-
-    return RoughSubstrate(bsdf.kd, bsdf.alpha, bsdf.int_ior, bsdf.ext_ior, lobe="diffuse")
+def albedo_quadrature(bsdf, theta_deg: float, alpha: float | None = None, seed: int = 0) -> float:
+    """ρ(θ_i) by quadrature (see module docstring); ``alpha`` is unused (kept for old callers)."""
+    return albedo_quadrature_with_error(bsdf, theta_deg, seed)[0]
 
 
 def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0) -> tuple[float, float]:
@@ -106,12 +143,151 @@ def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0) 
     return float(w.mean()), float(w.std(ddof=1) / np.sqrt(n))
 
 
-def albedo_curve(name: str, make_bsdf, alpha: float, thetas: list[float], n: int = 100_000) -> list[AlbedoPoint]:
-    """Directional albedo at each incident angle, by quadrature and Monte Carlo."""
+def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int | None = None,
+                  name: str | None = None, params: dict | None = None, alpha: float | None = None) -> AlbedoPoint:
+    """White-furnace check of one BSDF at one incident angle: ρ by quadrature and by Monte Carlo.
+
+    Parameters
+    ----------
+    bsdf
+        Any :class:`brdflab.BSDF` (a user's plugin included); called through
+        :class:`~brdflab.validate.guard.CheckedBSDF`.
+    theta
+        Incident angle θ_i in degrees (ω_i in the x–z plane).
+    samples
+        Monte Carlo samples.
+    seed
+        Default: derived from the BSDF's type, parameters and θ (:func:`~brdflab.validate.seeding.test_seed`).
+    name, params, alpha
+        For messages and reports.
+
+    Returns
+    -------
+    AlbedoPoint
+        ``passed`` is False when ρ > 1 beyond its uncertainty or the estimates disagree; ``message`` says which.
+
+    Examples
+    --------
+    >>> from brdflab.bsdf.roughconductor import RoughConductor
+    >>> from brdflab.validate.furnace import furnace_point
+    >>> r = furnace_point(RoughConductor(R0=1.0, alpha=0.3), theta=30.0, samples=20_000)
+    >>> r.passed, round(r.quadrature, 2)
+    (True, 0.99)
+    """
+    from brdflab.validate.guard import bsdf_params
+
+    params = dict(params if params is not None else bsdf_params(bsdf))
+    name = name or describe(bsdf)
+    if seed is None:
+        seed = test_seed("furnace", bsdf_identity(bsdf), params, float(theta))
+    b = CheckedBSDF(bsdf, name, params)
+    s_quad, s_mc = np.random.SeedSequence(seed).spawn(2)
+    try:
+        q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]))
+        m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]))
+        p = AlbedoPoint(name, alpha, float(theta), q, m, se, qe, seed, params)
+    except PluginFault as fault:
+        p = AlbedoPoint(name, alpha, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), seed,
+                        params, fault=str(fault))
+    p.message = p.summary()
+    return p
+
+
+def albedo_curve(name: str, make_bsdf, alpha: float | None, thetas: list[float], n: int = 100_000,
+                 params: dict | None = None) -> list[AlbedoPoint]:
+    """Directional albedo at each incident angle, by quadrature and Monte Carlo (``make_bsdf(alpha)``)."""
     out = []
-    for k, th in enumerate(thetas):
+    for th in thetas:
         b = make_bsdf(alpha)
-        q = albedo_quadrature(b, th, alpha)
-        m, se = albedo_monte_carlo(b, th, n, seed=k)
-        out.append(AlbedoPoint(name, alpha, th, q, m, se))
+        prm = {"alpha": alpha, **(params or {})} if alpha is not None else dict(params or {})
+        seed = test_seed("furnace", name, bsdf_identity(b), prm, float(th))
+        out.append(furnace_point(b, theta=th, samples=n, seed=seed, name=name, params=prm, alpha=alpha))
     return out
+
+
+@dataclass
+class FurnaceResult:
+    """Furnace results of one BSDF at several incident angles (iterable over its :class:`AlbedoPoint`s).
+
+    Attributes
+    ----------
+    name, params, seed
+        The BSDF, its parameters and the test's seed.
+    points
+        One :class:`AlbedoPoint` per angle.
+    """
+
+    name: str
+    params: dict
+    seed: int | None
+    points: list[AlbedoPoint]
+
+    @property
+    def passed(self) -> bool:
+        """Every angle passed."""
+        return bool(self.points) and all(p.passed for p in self.points)
+
+    @property
+    def max_albedo(self) -> float:
+        """Largest ρ (Monte Carlo) over the angles."""
+        return max(p.monte_carlo for p in self.points)
+
+    @property
+    def message(self) -> str:
+        """One line per angle."""
+        return "\n".join(p.message for p in self.points)
+
+    def __iter__(self):
+        return iter(self.points)
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __getitem__(self, i):
+        return self.points[i]
+
+
+def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, seed: int | None = None,
+                 name: str | None = None, theta: float | None = None, params: dict | None = None) -> FurnaceResult:
+    """White furnace of any BSDF: ρ(θ_i) by quadrature and by Monte Carlo at each angle; energy ≤ 1.
+
+    Parameters
+    ----------
+    bsdf
+        Any :class:`brdflab.BSDF` (a user's plugin included).
+    thetas
+        Incident angles θ_i in degrees (``theta=`` for a single angle).
+    samples
+        Monte Carlo samples per angle.
+    seed
+        Default: derived from the BSDF's type and parameters (each angle then gets its own stream).
+    name, params
+        For messages.
+
+    Returns
+    -------
+    FurnaceResult
+        Iterable over one :class:`AlbedoPoint` per angle (quadrature ± error, Monte Carlo ± standard error,
+        ``passed``, ``message``); ``passed`` when all pass.
+
+    Examples
+    --------
+    >>> import brdflab as bl
+    >>> res = bl.furnace_test(bl.RoughConductor(R0=1.0, alpha=0.3), thetas=(0.0, 60.0), samples=20_000)
+    >>> res.passed, [round(p.quadrature, 2) for p in res]
+    (True, [0.99, 0.98])
+    """
+    from brdflab.validate.guard import bsdf_params
+
+    thetas = (theta,) if theta is not None else tuple(thetas)
+    params = dict(params if params is not None else bsdf_params(bsdf))
+    name = name or describe(bsdf)
+    base = test_seed("furnace", bsdf_identity(bsdf), params) if seed is None else seed
+    alpha = getattr(bsdf, "alpha_value", None)
+    pts = [furnace_point(bsdf, theta=float(t), samples=samples, seed=test_seed("furnace-angle", base, float(t)),
+                         name=name, params=params, alpha=alpha) for t in thetas]
+    return FurnaceResult(name, params, base, pts)
+
+
+__all__ = ["AlbedoPoint", "FurnaceResult", "albedo_curve", "albedo_monte_carlo", "albedo_quadrature",
+           "format_params", "furnace_point", "furnace_test"]

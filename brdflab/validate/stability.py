@@ -37,11 +37,18 @@ class StabilityRow:
     nan: int
     inf: int
     negative: int
+    fault: str | None = None
 
     @property
     def passed(self) -> bool:
-        """No NaN, no infinity, no negative value."""
-        return self.nan == 0 and self.inf == 0 and self.negative == 0
+        """No NaN, no infinity, no negative value, and the BSDF neither raised nor returned wrong shapes."""
+        return self.fault is None and self.nan == 0 and self.inf == 0 and self.negative == 0
+
+    @property
+    def message(self) -> str:
+        """One-line verdict."""
+        what = self.fault or f"{self.nan} NaN, {self.inf} inf, {self.negative} negative of {self.n} values"
+        return f"{'PASS' if self.passed else 'FAIL'} stability {self.material} / {self.case}: {what}"
 
 
 def _dirs(theta_deg: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -90,18 +97,106 @@ def _count(x: np.ndarray) -> tuple[int, int, int]:
     return int(np.isnan(x).sum()), int(np.isinf(x).sum()), int((x < 0).sum())
 
 
-def run(seed: int = 0) -> list[StabilityRow]:
-    """Evaluate every material on every case; one row per (material, case)."""
+def _row(mname: str, cname: str, bsdf, wi: np.ndarray, wo: np.ndarray, u: np.ndarray) -> StabilityRow:
+    """Evaluate one case; exceptions and wrong shapes become a failed row naming the method."""
+    from brdflab.validate.guard import CheckedBSDF, PluginFault
+
+    n = len(wi)
+    shapes = {"eval": (n, 3), "pdf": (n,), "sample.wo": (n, 3), "sample.weight": (n, 3), "sample.pdf": (n,)}
+    proxy = CheckedBSDF(bsdf, mname)
+    try:
+        f = proxy._call("eval", wi, wo, None)
+        p = proxy._call("pdf", wi, wo, None)
+        s = proxy._call("sample", wi, u, None)
+        swo, sw, sp = s
+        out = {"eval": f, "pdf": p, "sample.wo": swo, "sample.weight": sw, "sample.pdf": sp}
+        out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
+    except PluginFault as fault:
+        return StabilityRow(mname, cname, 0, 0, 0, 0, fault=str(fault))
+    except (TypeError, ValueError) as exc:
+        return StabilityRow(mname, cname, 0, 0, 0, 0, fault=f"{mname}.sample returned {exc}")
+    for k, v in out.items():
+        if v.shape != shapes[k]:
+            what = f"{mname}.{k} has shape {v.shape}, expected {shapes[k]}"
+            return StabilityRow(mname, cname, 0, 0, 0, 0, fault=what)
+    vals = np.concatenate([out["eval"].ravel(), out["pdf"], out["sample.weight"].ravel(), out["sample.pdf"]])
+    nan, inf, neg = _count(vals)
+    nan += int(np.isnan(out["sample.wo"]).sum())
+    return StabilityRow(mname, cname, len(vals), nan, inf, neg)
+
+
+def run(seed: int = 0, bsdfs: dict[str, object] | None = None) -> list[StabilityRow]:
+    """Evaluate every material (default: :func:`materials`) on every case; one row per (material, case)."""
     rng = np.random.default_rng(seed)
     cases = _cases(rng)
     rows = []
-    for mname, bsdf in materials().items():
+    for mname, bsdf in (materials() if bsdfs is None else bsdfs).items():
         for cname, (wi, wo) in cases.items():
-            f = bsdf.eval(wi, wo)
-            p = bsdf.pdf(wi, wo)
-            s = bsdf.sample(wi, rng.random((len(wi), 3)))
-            vals = np.concatenate([f.ravel(), p, s.weight.ravel(), s.pdf])
-            nan, inf, neg = _count(vals)
-            nan += int(np.isnan(s.wo).sum())
-            rows.append(StabilityRow(mname, cname, len(vals), nan, inf, neg))
+            rows.append(_row(mname, cname, bsdf, wi, wo, rng.random((len(wi), 3))))
     return rows
+
+
+@dataclass
+class StabilityResult:
+    """Stability rows of one BSDF (or of the built-ins), iterable over its :class:`StabilityRow`s."""
+
+    name: str
+    seed: int | None
+    rows: list[StabilityRow]
+
+    @property
+    def passed(self) -> bool:
+        """Every case passed."""
+        return bool(self.rows) and all(r.passed for r in self.rows)
+
+    @property
+    def message(self) -> str:
+        """A summary line, then the failed cases."""
+        bad = [r for r in self.rows if not r.passed]
+        head = (f"{'PASS' if not bad else 'FAIL'} stability {self.name}: {len(self.rows)} extreme cases, "
+                f"{len(bad)} failed")
+        return "\n".join([head, *(r.message for r in bad)])
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, i):
+        return self.rows[i]
+
+
+def stability_test(bsdf=None, name: str | None = None, seed: int | None = None) -> StabilityResult:
+    """Extreme and degenerate directions: no NaN, infinity, negative value, exception or wrong shape.
+
+    Parameters
+    ----------
+    bsdf
+        Any :class:`brdflab.BSDF`; None: the built-in materials at extreme parameters (:func:`materials`).
+    name
+        For messages (default: its type name).
+    seed
+        Default: derived from the BSDF's type (0 for the built-ins).
+
+    Returns
+    -------
+    StabilityResult
+        Iterable over one :class:`StabilityRow` per (material, case); ``passed`` when all pass.
+
+    Examples
+    --------
+    >>> import brdflab as bl
+    >>> res = bl.stability_test(bl.Diffuse(albedo=0.5))
+    >>> len(res), res.passed
+    (9, True)
+    """
+    from brdflab.validate.guard import describe
+    from brdflab.validate.seeding import bsdf_identity, test_seed
+
+    if bsdf is None:
+        return StabilityResult("built-in materials", seed or 0, run(seed or 0))
+    name = name or describe(bsdf)
+    if seed is None:
+        seed = test_seed("stability", bsdf_identity(bsdf), name)
+    return StabilityResult(name, seed, run(seed % 2**32, {name: bsdf}))
