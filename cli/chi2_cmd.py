@@ -1,4 +1,11 @@
-"""``brdflab chi2 --bsdf NAME`` / ``--warp NAME``: chi-square tests of one sampling routine."""
+"""``brdflab chi2 --bsdf NAME`` / ``--warp NAME``: chi-square tests of one sampling routine;
+``brdflab chi2 --samples FILE --against NAME``: a file of samples from another renderer (see
+:mod:`brdflab.validate.external` and docs/external-samples.md).
+
+``-n/--count N`` is the number of samples brdflab draws per test. ``--samples`` names a file of samples;
+``--samples N`` with an integer N that is not an existing file still means the count (deprecated, with a
+warning), so older command lines keep working.
+"""
 
 from __future__ import annotations
 
@@ -24,23 +31,59 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "alpha parameter) and θ ∈ {0, 30, 60, 80, 89}°. Exit status 1 if a test fails.")
     add_bsdf_options(p)
     p.add_argument("--warp", choices=list(WARPS) + list(POINT_WARPS), help="test a warp instead of a BSDF")
-    p.add_argument("--samples", type=count(1000), default=100_000,
-                   help="samples per test, at least 1000 (default 100000)")
+    p.add_argument("--samples", type=_samples_arg, metavar="FILE",
+                   help="a file of samples from your renderer: one line 'wi_x wi_y wi_z wo_x wo_y wo_z [pdf [w_r w_g "
+                   "w_b]]' per sample (local frame, z = normal; '#' comments), or .npy/.npz; use with --against "
+                   "(an integer N that is not a file: the sample count, deprecated for -n)")
+    p.add_argument("--against", metavar="NAME",
+                   help="with --samples FILE: the BSDF (built-in or plugin type) or warp (beckmann, cosine_hemisphere, "
+                   "uniform_hemisphere, uniform_sphere) the file's samples should follow")
+    p.add_argument("-n", "--count", type=count(1000), default=None, metavar="N",
+                   help="samples per test when brdflab samples, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/chi2_<name>)")
     add_cluster_options(p)
     p.set_defaults(func=run, parser=p)
 
 
+def _samples_arg(text: str) -> int | str:
+    """``--samples``: a file name, or (deprecated) an integer sample count ≥ 1000 when no such file exists."""
+    if Path(text).exists():
+        return text
+    try:
+        int(text)
+    except ValueError:
+        return text
+    return count(1000)(text)
+
+
+def _count(args: argparse.Namespace) -> int:
+    """The sample count: ``-n/--count``, or the deprecated ``--samples N``."""
+    from brdflab.errors import BrdflabError
+
+    if isinstance(args.samples, int):
+        if args.count is not None:
+            raise BrdflabError("give the sample count once: -n/--count N ('--samples N' is its deprecated form)")
+        print("brdflab: warning: '--samples N' for the sample count is deprecated; use '-n/--count N' "
+              "('--samples FILE' checks a file of samples)", file=sys.stderr)
+        return args.samples
+    return 100_000 if args.count is None else args.count
+
+
 def run(args: argparse.Namespace) -> int:
-    """Run the tests and write the report."""
+    """Run the tests and write the report (``--samples FILE``: :func:`run_samples_file`)."""
     from brdflab.errors import BrdflabError
     from brdflab.report.index import write_index
     from brdflab.report.validation import write_validation_report
     from brdflab.validate.battery import ALPHAS, THETAS, run_battery
 
+    if isinstance(args.samples, str):
+        return run_samples_file(args)
+    if args.against:
+        raise BrdflabError("--against NAME needs --samples FILE (the samples to check)")
     if (args.bsdf is None) == (args.warp is None):
-        raise BrdflabError("chi2 needs exactly one of --bsdf NAME or --warp NAME")
+        raise BrdflabError("chi2 needs exactly one of --bsdf NAME or --warp NAME (or --samples FILE --against NAME)")
+    n = _count(args)
     load_plugins(args)
     params: dict = {}
     if args.bsdf:
@@ -50,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         if args.param:
             raise BrdflabError("--param applies to --bsdf, not to --warp")
     with cluster_from_args(args) as cluster:
-        bat = run_battery(n=args.samples, bsdfs=[name] if args.bsdf else [],
+        bat = run_battery(n=n, bsdfs=[name] if args.bsdf else [],
                           warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
                           thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print,
                           cluster=cluster)
@@ -65,3 +108,36 @@ def run(args: argparse.Namespace) -> int:
     for f in bat.failures():
         print("  " + f, file=sys.stderr)
     return 0 if bat.passed else 1
+
+
+def run_samples_file(args: argparse.Namespace) -> int:
+    """``chi2 --samples FILE --against NAME``: exit 0 if the file's samples pass, 1 if not (saying which check)."""
+    from brdflab.errors import BrdflabError
+    from brdflab.validate.battery import WARPS
+    from brdflab.validate.external import check_samples
+
+    if not args.against:
+        raise BrdflabError("--samples FILE needs --against NAME (a BSDF or warp, e.g. --against beckmann --alpha 0.1)")
+    if args.bsdf or args.warp or args.theta or args.full or args.count is not None:
+        raise BrdflabError("--samples FILE takes only --against, --alpha, --param and --plugin (the file fixes wi "
+                           "and the count)")
+    alphas = args.alpha or []
+    if len(alphas) > 1:
+        raise BrdflabError("--samples FILE takes one --alpha (the roughness the samples were drawn with)")
+    load_plugins(args)
+    if args.against in WARPS:
+        if args.param:
+            raise BrdflabError(f"--param does not apply to the {args.against} warp")
+        name, params = args.against, {}
+        if alphas and not alphas[0] > 0:
+            raise BrdflabError(f"--alpha must be > 0, got {alphas[0]}")
+    else:
+        name, params, _, _ = bsdf_spec_from_args(args, args.against)
+    res = check_samples(args.samples, name, alpha=alphas[0] if alphas else None, params=params)
+    print(f"{res.path}: {sum(g.n for g in res.groups)} samples in {len(res.groups)} wi group(s) against "
+          f"{res.against} (chi-square threshold {res.threshold:.3g} per group)")
+    for line in res.messages():
+        print(line)
+    bad = [g for g in res.groups if not g.passed]
+    print("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.groups)} wi group(s) FAILED")
+    return 0 if res.passed else 1

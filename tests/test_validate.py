@@ -131,7 +131,8 @@ def test_cli_chi2_and_validate_reports(tmp_path, capsys):
 def test_battery_small_full_run(tmp_path):
     from brdflab.report.validation import write_validation_report
 
-    bat = run_battery(n=20_000, bsdfs=["roughconductor"], warp_names=["beckmann"], alphas=(0.1,), thetas=(30.0,))
+    bat = run_battery(n=20_000, bsdfs=["roughconductor"], warp_names=["beckmann"], alphas=(0.1,), thetas=(30.0,),
+                      furnace_alphas=(0.1, 1.0), furnace_thetas=(0.0, 60.0, 85.0))
     assert bat.passed, bat.failures()
     assert bat.negative_control and all(not r.passed for r in bat.negative_control)
     path = write_validation_report(bat, tmp_path)

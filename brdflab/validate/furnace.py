@@ -106,8 +106,8 @@ def _luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb @ LUMINANCE
 
 
-def albedo_quadrature_with_error(bsdf, theta_deg: float, seed: int = 0, pilot: int = 20_000,
-                                 shape: tuple[int, int] = (16, 24)) -> tuple[float, float]:
+def albedo_quadrature_with_error(bsdf, theta_deg: float, seed: int = 0, pilot: int = 5_000,
+                                 shape: tuple[int, int] = (8, 16)) -> tuple[float, float]:
     """ρ(θ_i) (luminance) by adaptive quadrature over pilot-placed bins, and its error estimate."""
     b = bsdf if isinstance(bsdf, CheckedBSDF) else CheckedBSDF(bsdf)
     wi1 = incident(theta_deg)

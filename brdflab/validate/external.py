@@ -1,0 +1,490 @@
+"""Users' own samples under the chi-square test: a file of samples from another renderer (Nori, C++).
+
+File format
+-----------
+One sample per line, whitespace separated, ``#`` starts a comment, blank lines are ignored; all directions
+in the local shading frame (z = normal); one line per call of the sampler, failures included:
+
+====================================================  ==========================================================
+columns                                               meaning
+====================================================  ==========================================================
+``wi_x wi_y wi_z wo_x wo_y wo_z``                     incident direction ω_i and the sampled ω_o
+``... pdf``                                           the sampler's solid-angle pdf of ω_o
+``... pdf w_r w_g w_b``                               and its weight f·cos θ_o / pdf (what ``BSDF::sample`` returns)
+``x y z`` or ``x y z pdf``                            warps only: a sampled direction (and its pdf)
+====================================================  ==========================================================
+
+Every line of a file has the same number of columns. A **failed** sample (``BSDF::sample`` returned 0) is
+a line with pdf 0 or with ω_o = 0 0 0: it must be written, since the test compares the fraction of failed
+samples too. ``.npy`` files hold the same columns as an (N, k) array; ``.npz`` files hold it under the key
+``samples`` (or as their only array). For a warp the ω_i columns may hold anything (they are ignored) and
+weight columns are not allowed.
+
+What is checked
+---------------
+Samples are grouped by ω_i (components equal within 10⁻⁴; several ω_i per file). For each group:
+
+* **Distribution**: the chi-square test of :mod:`brdflab.validate.chi2` of the file's ω_o against
+  brdflab's pdf for that ω_i (bins placed by a pilot sample of brdflab's *own* sampler, so the user's data
+  never place their own bins). For a BSDF, directions below the horizon count as failed, on both sides
+  (renderers differ in whether such samples fail or carry weight 0). Šidák-corrected over the groups.
+* **Pdf column**: relative error |p_file − p| / max(p_file, p) per sample; it fails when more than 0.1 % of
+  the samples are off by more than 10⁻² (float32 renderers stay far below). The worst sample is reported
+  with its line. Heuristic hints name the usual bugs: p_file / p ≈ 4 |ω_o·ω_h| (the pdf of the half vector,
+  i.e. the 1/(4|ω_o·ω_h|) Jacobian is missing), a constant ratio (a missing normalisation constant).
+* **Weight columns**: the same against brdflab's f·cos θ_o / p; hint when the ratio is cos θ_i / cos θ_o.
+
+A malformed file raises :class:`~brdflab.errors.BrdflabError` with ``file:line``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.errors import BrdflabError
+from brdflab.validate import chi2 as c2
+from brdflab.validate.seeding import test_seed
+
+#: Components of ω_i equal within this tolerance form one group.
+WI_TOLERANCE = 1e-4
+#: Per-sample relative tolerance of the pdf and weight columns, and the fraction allowed beyond it.
+COLUMN_RTOL = 1e-2
+COLUMN_FRACTION = 1e-3
+#: Fewest samples per ω_i group for a meaningful chi-square test.
+MIN_GROUP = 50
+
+DIRECTION_WARPS = ("uniform_sphere", "uniform_hemisphere", "cosine_hemisphere", "beckmann")
+
+
+def _short(token: str, n: int = 20) -> str:
+    s = token.encode("unicode_escape").decode("ascii")
+    return s if len(s) <= n else s[: n - 3] + "..."
+
+
+@dataclass
+class Samples:
+    """Columns read from a samples file: ``wi``/``wo`` (N, 3), ``pdf`` (N,) or None, ``weight`` (N, 3) or None."""
+
+    path: str
+    wi: np.ndarray
+    wo: np.ndarray
+    pdf: np.ndarray | None
+    weight: np.ndarray | None
+    lines: np.ndarray
+    direction_only: bool = False
+
+
+def _columns(path: str, data: np.ndarray, lines: np.ndarray, ncol: int) -> Samples:
+    if ncol in (3, 4):
+        return Samples(path, np.tile([0.0, 0.0, 1.0], (len(data), 1)), data[:, :3],
+                       data[:, 3] if ncol == 4 else None, None, lines, direction_only=True)
+    return Samples(path, data[:, :3], data[:, 3:6], data[:, 6] if ncol >= 7 else None,
+                   data[:, 7:10] if ncol == 10 else None, lines)
+
+
+ALLOWED = (3, 4, 6, 7, 10)
+EXPECTED = "6, 7 or 10 columns (wi wo [pdf [w_r w_g w_b]]), or 3/4 for a warp (x y z [pdf])"
+
+
+def read_samples(path: str | Path) -> Samples:
+    """Read a samples file (text, ``.npy`` or ``.npz``); see the module docstring for the format.
+
+    Raises
+    ------
+    BrdflabError
+        ``file:line: what was expected`` for a malformed file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "s.txt"
+    >>> _ = p.write_text("# wi wo pdf\\n0 0 1  0 0 1  0.318\\n0 0 1  0.6 0 0.8  0.2546\\n")
+    >>> s = read_samples(p)
+    >>> s.wo.shape, s.pdf.tolist()
+    ((2, 3), [0.318, 0.2546])
+    """
+    path = Path(path)
+    if not path.exists():
+        raise BrdflabError(f"samples file '{path}' not found")
+    if path.suffix in (".npy", ".npz"):
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise BrdflabError(f"cannot read as {path.suffix}: {_short(str(exc), 60)}", file=path) from None
+        if path.suffix == ".npz":
+            keys = list(arr.files)
+            key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
+            if key is None:
+                raise BrdflabError(f"expected an array named 'samples' (found {', '.join(keys[:5]) or 'none'})",
+                                   file=path)
+            arr = arr[key]
+        if arr.ndim != 2 or arr.shape[1] not in ALLOWED or not np.issubdtype(arr.dtype, np.number):
+            raise BrdflabError(f"expected a numeric (N, k) array with k = {EXPECTED}; got shape {arr.shape}",
+                               file=path)
+        data = arr.astype(np.float64)
+        bad = ~np.isfinite(data).all(axis=1)
+        if bad.any():
+            raise BrdflabError(f"row {int(np.argmax(bad))}: non-finite value", file=path)
+        return _columns(str(path), data, np.arange(len(data)), arr.shape[1])
+    rows, lines, ncol, first = [], [], None, None
+    try:
+        text = path.read_text(encoding="utf-8", errors="strict")
+    except UnicodeDecodeError:
+        raise BrdflabError("not a text file (expected whitespace-separated numbers; binary data: use .npy)",
+                           file=path) from None
+    for num, raw in enumerate(text.splitlines(), 1):
+        tokens = raw.split("#", 1)[0].split()
+        if not tokens:
+            continue
+        if ncol is None:
+            if len(tokens) not in ALLOWED:
+                raise BrdflabError(f"{len(tokens)} columns; expected {EXPECTED}", file=path, line=num)
+            ncol, first = len(tokens), num
+        elif len(tokens) != ncol:
+            raise BrdflabError(f"{len(tokens)} columns, but line {first} has {ncol}", file=path, line=num)
+        try:
+            vals = [float(t) for t in tokens]
+        except ValueError:
+            bad = next(t for t in tokens if not _is_float(t))
+            raise BrdflabError(f"'{_short(bad)}' is not a number", file=path, line=num) from None
+        if not all(np.isfinite(vals)):
+            raise BrdflabError("non-finite value (nan/inf)", file=path, line=num)
+        rows.append(vals)
+        lines.append(num)
+    if not rows:
+        raise BrdflabError("no samples (only comments or blank lines)", file=path)
+    return _columns(str(path), np.array(rows), np.array(lines), ncol)
+
+
+def _is_float(t: str) -> bool:
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
+
+
+def group_by_wi(wi: np.ndarray, tol: float = WI_TOLERANCE) -> list[np.ndarray]:
+    """Index arrays of the samples sharing one ω_i (components equal within ``tol``), in file order."""
+    key = np.round(wi / tol).astype(np.int64)
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    # Merge keys that round differently but lie within tol (a value on a rounding boundary).
+    reps = wi[first]
+    parent = np.arange(len(reps))
+    for i in range(len(reps)):
+        close = np.nonzero(np.abs(reps - reps[i]).max(axis=1) <= tol)[0]
+        parent[close] = min(parent[i], parent[close].min())
+    labels = parent[inv]
+    order = sorted(np.unique(labels), key=lambda g: int(np.argmax(labels == g)))
+    return [np.nonzero(labels == g)[0] for g in order]
+
+
+@dataclass
+class ColumnCheck:
+    """Comparison of a pdf or weight column with brdflab's values."""
+
+    column: str
+    max_rel_error: float
+    fraction_off: float
+    worst_line: int
+    worst_wo: np.ndarray
+    file_value: float
+    our_value: float
+    hint: str = ""
+
+    @property
+    def passed(self) -> bool:
+        """At most 0.1 % of the samples off by more than 10⁻² relative."""
+        return self.fraction_off <= COLUMN_FRACTION
+
+    def describe(self, path: str) -> str:
+        """One line naming the worst sample and the hint."""
+        s = (f"{self.column} column: worst relative error {self.max_rel_error:.3g} at {path}:{self.worst_line} "
+             f"(wo = {_vec(self.worst_wo)}: file {self.file_value:.6g}, brdflab {self.our_value:.6g}); "
+             f"{100 * self.fraction_off:.2f} % of the samples off by > {COLUMN_RTOL:g}")
+        return s + (f" — {self.hint}" if self.hint else "")
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{x:.5g}" for x in np.ravel(v)[:3]) + ")"
+
+
+@dataclass
+class GroupResult:
+    """Result for the samples of one ω_i."""
+
+    wi: np.ndarray
+    n: int
+    first_line: int
+    chi2: c2.Chi2Result | None
+    pdf: ColumnCheck | None = None
+    weight: ColumnCheck | None = None
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        """Distribution, pdf and weight columns all right."""
+        return (not self.problems and (self.chi2 is None or self.chi2.passed)
+                and (self.pdf is None or self.pdf.passed) and (self.weight is None or self.weight.passed))
+
+
+@dataclass
+class ExternalResult:
+    """Outcome of :func:`check_samples` for one file.
+
+    Attributes
+    ----------
+    path, against, params
+        The file, the reference (BSDF or warp name) and its parameters.
+    groups
+        One :class:`GroupResult` per ω_i.
+    threshold
+        Per-group chi-square significance (Šidák over the groups).
+    """
+
+    path: str
+    against: str
+    params: dict
+    groups: list[GroupResult]
+    threshold: float
+
+    @property
+    def passed(self) -> bool:
+        """Every group passed."""
+        return bool(self.groups) and all(g.passed for g in self.groups)
+
+    def messages(self) -> list[str]:
+        """One line per group (verdict), then one line per failure saying which check failed."""
+        out = []
+        for g in self.groups:
+            head = f"{'PASS' if g.passed else 'FAIL'}  wi = {_vec(g.wi)} ({g.n} samples from line {g.first_line})"
+            if g.chi2 is not None:
+                head += f": chi2 p = {g.chi2.p_value:.4g}"
+                if g.pdf is not None:
+                    head += f", pdf worst rel. error {g.pdf.max_rel_error:.2g}"
+                if g.weight is not None:
+                    head += f", weight worst rel. error {g.weight.max_rel_error:.2g}"
+            out.append(head)
+            if g.chi2 is not None and not g.chi2.passed:
+                why = g.chi2.fault or (f"p = {g.chi2.p_value:.3g} ≤ {g.chi2.threshold:.2g}, X² = "
+                                       f"{g.chi2.statistic:.1f} for {g.chi2.dof} dof")
+                out.append(f"  WRONG DISTRIBUTION: the sampled directions do not follow brdflab's {self.against} "
+                           f"pdf ({why})")
+            if g.pdf is not None and not g.pdf.passed:
+                out.append("  WRONG PDF COLUMN: " + g.pdf.describe(self.path))
+            if g.weight is not None and not g.weight.passed:
+                out.append("  WRONG WEIGHT COLUMN: " + g.weight.describe(self.path))
+            out.extend("  " + p for p in g.problems)
+        return out
+
+
+def _reference(against, alpha: float | None, params: dict | None, make=None):
+    """(name, kind, object): kind 'warp' → (sample(u), pdf(w)); kind 'bsdf' → a BSDF."""
+    from brdflab.validate.battery import WARPS, resolve_bsdfs
+
+    params = dict(params or {})
+    if not isinstance(against, str):
+        from brdflab.validate.guard import describe
+
+        return describe(against), "bsdf", against
+    if against in WARPS:
+        w, p, takes_alpha = WARPS[against]
+        if takes_alpha:
+            if alpha is None:
+                raise BrdflabError(f"--against {against} needs --alpha (the roughness the samples were drawn with)")
+            return against, "warp", (lambda u: w(u, alpha), lambda d: p(d, alpha))
+        if alpha is not None:
+            raise BrdflabError(f"--alpha does not apply to the {against} warp")
+        if params:
+            raise BrdflabError(f"the {against} warp has no parameters (got {', '.join(params)})")
+        return against, "warp", (w, p)
+    try:
+        entry = resolve_bsdfs([against], make)[0]
+    except (KeyError, LookupError) as exc:
+        raise BrdflabError(f"unknown --against '{_short(against, 40)}': not a warp ({', '.join(DIRECTION_WARPS)}) "
+                           f"nor a BSDF ({exc})") from None
+    if entry.takes_alpha and alpha is None and against in _builtin_names():
+        raise BrdflabError(f"--against {against} needs --alpha (the roughness the samples were drawn with)")
+    if not entry.takes_alpha and alpha is not None:
+        raise BrdflabError(f"--alpha does not apply to {against} (it has no alpha parameter)")
+    return against, "bsdf", entry.make(alpha, params)
+
+
+def _builtin_names():
+    from brdflab.validate.battery import BSDFS
+
+    return BSDFS
+
+
+def _column_check(column: str, file_v: np.ndarray, ours: np.ndarray, lines: np.ndarray, wo: np.ndarray,
+                  hint: str) -> ColumnCheck:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(file_v - ours) / np.maximum(np.maximum(np.abs(file_v), np.abs(ours)), 1e-300)
+    rel = np.where(file_v == ours, 0.0, rel)
+    rel_s = rel.max(axis=1) if rel.ndim == 2 else rel
+    i = int(np.argmax(rel_s))
+    fv = file_v[i] if file_v.ndim == 1 else file_v[i][int(np.argmax(rel[i]))]
+    ov = ours[i] if ours.ndim == 1 else ours[i][int(np.argmax(rel[i]))]
+    return ColumnCheck(column, float(rel_s[i]), float((rel_s > COLUMN_RTOL).mean()), int(lines[i]), wo[i],
+                       float(fv), float(ov), hint)
+
+
+def _ratio_hint(ratio: np.ndarray, candidates: list[tuple[str, np.ndarray]]) -> str:
+    ok = np.isfinite(ratio) & (ratio > 0)
+    if ok.sum() < 10:
+        return ""
+    for text, expect in candidates:
+        e = expect[ok]
+        good = np.isfinite(e) & (e > 0)
+        if good.sum() >= 10 and np.median(np.abs(ratio[ok][good] / e[good] - 1)) < 1e-2:
+            return text
+    med = np.median(ratio[ok])
+    if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3:
+        return f"the file's values are brdflab's times a constant {med:.6g} (a missing normalisation factor?)"
+    return ""
+
+
+def check_samples(samples: str | Path | Samples, against, *, alpha: float | None = None,
+                  params: dict | None = None, seed: int | None = None, threshold: float = c2.SIGNIFICANCE,
+                  make=None) -> ExternalResult:
+    """Check a file of samples from another renderer against brdflab's BSDF or warp.
+
+    Parameters
+    ----------
+    samples
+        A path (text, ``.npy``, ``.npz``; see the module docstring) or :class:`Samples`.
+    against
+        A warp name (``beckmann``, ``cosine_hemisphere``, ``uniform_hemisphere``, ``uniform_sphere``), a
+        BSDF name (built-in, a lobe variant such as ``roughsubstrate/specular``, or a registered plugin's
+        type), or a BSDF instance.
+    alpha, params
+        Roughness and parameters of the reference (as used to produce the samples).
+    seed
+        Seed of brdflab's own pilot sample (default: derived from the file name and the reference).
+    threshold
+        Family-wise significance; Šidák-corrected over the ω_i groups.
+    make
+        ``make(name, alpha, params)`` to build BSDFs by name (default: built-ins, then the plugin registry).
+
+    Returns
+    -------
+    ExternalResult
+        ``passed``; ``messages()`` says per ω_i whether the distribution, the pdf column or the weights are wrong.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from brdflab.math import warps
+    >>> wo = warps.square_to_cosine_hemisphere(np.random.default_rng(5).random((20_000, 2)))
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "cos.npy"
+    >>> np.save(p, np.column_stack([wo, wo[:, 2] / np.pi]))
+    >>> r = check_samples(p, "cosine_hemisphere")
+    >>> r.passed, len(r.groups)
+    (True, 1)
+    """
+    s = samples if isinstance(samples, Samples) else read_samples(samples)
+    name, kind, ref = _reference(against, alpha, params, make)
+    params = dict(params or {})
+    if kind == "warp" and s.weight is not None:
+        raise BrdflabError("weight columns are not allowed for a warp (use wi wo [pdf] or x y z [pdf])", file=s.path)
+    if kind == "bsdf" and s.direction_only:
+        raise BrdflabError(f"{name} is a BSDF: each line needs wi and wo (6, 7 or 10 columns), not 3 or 4",
+                           file=s.path)
+    if seed is None:
+        seed = test_seed("external", Path(s.path).name, name, alpha, params)
+    groups = [np.arange(len(s.wo))] if kind == "warp" else group_by_wi(s.wi)
+    thr = c2.sidak(threshold, len(groups))
+    out = []
+    for gi, idx in enumerate(groups):
+        out.append(_check_group(s, idx, name, kind, ref, int(np.random.SeedSequence([seed, gi]).generate_state(1)[0]),
+                                thr))
+    return ExternalResult(s.path, name, {"alpha": alpha, **params} if alpha is not None else params, out, thr)
+
+
+def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: int, thr: float) -> GroupResult:
+    from brdflab.validate.guard import CheckedBSDF, PluginFault
+
+    wo = s.wo[idx]
+    lines = s.lines[idx]
+    norm = np.sqrt((wo * wo).sum(axis=1))
+    failed = norm == 0
+    if s.pdf is not None:
+        failed |= s.pdf[idx] <= 0
+    wi1 = s.wi[idx].mean(axis=0)
+    wi1 = wi1 / max(np.linalg.norm(wi1), 1e-300) if kind == "bsdf" else wi1
+    g = GroupResult(wi1, len(idx), int(lines[0]), None)
+    if kind == "bsdf" and abs(np.linalg.norm(s.wi[idx[0]]) - 1) > 1e-3:
+        g.problems.append(f"{s.path}:{lines[0]}: wi = {_vec(s.wi[idx[0]])} is not a unit vector")
+    bad = ~failed & (np.abs(norm - 1) > 1e-3)
+    if bad.any():
+        i = int(np.argmax(bad))
+        g.problems.append(f"{s.path}:{lines[i]}: wo = {_vec(wo[i])} is not a unit vector (|wo| = {norm[i]:.4g}); "
+                          f"{int(bad.sum())} such samples")
+    wo_n = np.where(failed[:, None], 0.0, wo / np.where(norm > 0, norm, 1.0)[:, None])
+    if len(idx) < MIN_GROUP:
+        g.problems.append(f"only {len(idx)} samples for this wi (at least {MIN_GROUP} are needed; wi components equal "
+                          f"within {WI_TOLERANCE:g} are grouped)")
+        return g
+    valid = ~failed
+    s_pilot, s_mix = np.random.SeedSequence(seed).spawn(2)
+    n_pilot = max(len(idx) // 2, 4000)
+    try:
+        if kind == "warp":
+            sample_w, pdf_w = ref
+            pilot = sample_w(np.random.default_rng(s_pilot).random((n_pilot, 2)))
+            pilot = pilot[pdf_w(pilot) > 0]
+            pdf_fn = pdf_w
+            obs = wo_n[valid]
+            ours = pdf_w(wo_n) if s.pdf is not None else None
+        else:
+            b = CheckedBSDF(ref, name)
+            wi_p = np.ascontiguousarray(np.broadcast_to(wi1, (n_pilot, 3)))
+            r = b.sample(wi_p, np.random.default_rng(s_pilot).random((n_pilot, 3)))
+            pilot = r.wo[(r.pdf > 0) & (r.wo[:, 2] > 0)]
+
+            def pdf_fn(w):
+                p = b.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w)
+                return np.where(w[:, 2] > 0, p, 0.0)  # below the horizon counts as failed (module docstring)
+
+            obs = wo_n[valid & (wo_n[:, 2] > 0)]
+            wi_all = np.ascontiguousarray(np.broadcast_to(wi1, (len(idx), 3)))
+            ours = b.pdf(wi_all, wo_n) if s.pdf is not None else None
+        g.chi2 = c2.directions_test(f"{name} (file)", obs, len(idx), pdf_fn, pilot, seed=seed,
+                                    params={"wi": tuple(np.round(wi1, 6))}, threshold=thr,
+                                    mix_rng=np.random.default_rng(s_mix))
+        cmp = valid & (wo_n[:, 2] > 0) if kind == "bsdf" else valid
+        if s.pdf is not None and cmp.any():
+            fp = s.pdf[idx][cmp]
+            cand = []
+            if kind == "bsdf":
+                h = wi1 + wo_n[cmp]
+                h /= np.maximum(np.linalg.norm(h, axis=1), 1e-300)[:, None]
+                oh4 = 4 * np.abs((wo_n[cmp] * h).sum(axis=1))
+                cand = [("the pdf column lacks the 1/(4|ωo·ωh|) Jacobian (it is the density of ωh, not of ωo)", oh4),
+                        ("the pdf column has the 1/(4|ωo·ωh|) Jacobian twice", 1 / oh4),
+                        ("the pdf column has an extra factor cos θo", wo_n[cmp][:, 2])]
+            g.pdf = _column_check("pdf", fp, ours[cmp], lines[cmp], wo_n[cmp],
+                                  _ratio_hint(fp / np.where(ours[cmp] > 0, ours[cmp], np.nan), cand))
+            if not g.pdf.passed and not g.pdf.hint and g.chi2.passed:
+                g.pdf.hint = "the sampled directions are right: only the pdf written with them is wrong"
+        if kind == "bsdf" and s.weight is not None and cmp.any():
+            f = b.eval(np.ascontiguousarray(np.broadcast_to(wi1, (int(cmp.sum()), 3))), wo_n[cmp])
+            p = b.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (int(cmp.sum()), 3))), wo_n[cmp])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ow = np.where(p[:, None] > 0, f * (wo_n[cmp][:, 2] / p)[:, None], 0.0)
+            fw = s.weight[idx][cmp]
+            lum = np.array([0.212671, 0.715160, 0.072169])
+            ratio = (fw @ lum) / np.where(ow @ lum > 0, ow @ lum, np.nan)
+            cand = [("the weight uses cos θi instead of cos θo", wi1[2] / wo_n[cmp][:, 2]),
+                    ("the weight lacks the cos θo factor", 1 / wo_n[cmp][:, 2])]
+            if s.pdf is not None:
+                cand.append(("the weight is f·cos/pdf with the file's (wrong) pdf column",
+                             p / np.where(s.pdf[idx][cmp] > 0, s.pdf[idx][cmp], np.nan)))
+            g.weight = _column_check("weight", fw, ow, lines[cmp], wo_n[cmp], _ratio_hint(ratio, cand))
+    except PluginFault as fault:
+        g.problems.append(str(fault))
+    return g
