@@ -10,7 +10,10 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.validate", "brdflab.bsdf.roughconductor"]
+DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.validate", "brdflab.bsdf.roughconductor",
+                   "brdflab.validate.battery", "brdflab.validate.consistency", "brdflab.validate.external",
+                   "brdflab.validate.furnace", "brdflab.validate.guard", "brdflab.validate.seeding",
+                   "brdflab.validate.stability"]
 
 
 def test_tutorial_runs(monkeypatch):

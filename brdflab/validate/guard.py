@@ -123,7 +123,8 @@ class CheckedBSDF:
             raise self.fault(method, f"returned {type(value).__name__}{what}, expected an array of shape {shape}") \
                 from None
         if a.shape != shape:
-            raise self.fault(method, f"returned shape {a.shape}{what}, expected {shape}")
+            first = (wi[0], other[0], other_name) if len(wi) and len(other) else ()
+            raise self.fault(method, f"returned shape {a.shape}{what}, expected {shape}", *first)
         rows = a.reshape(len(a), -1) if a.ndim else a.reshape(1, 1)
         bad = ~np.isfinite(rows).all(axis=1)
         if bad.any():
