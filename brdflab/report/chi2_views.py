@@ -194,10 +194,10 @@ def figure(result: c2.Chi2Result, view: View, negative: bool = False):
             ticks = np.arange(0, n_t + 1, max(1, n_t // 5))
             ax.set_yticks(ticks)
             ax.set_yticklabels([f"{edges[t]:.3g}" for t in ticks], fontsize=7)
-            ax.set_xticks(range(0, 361, 90))
+            ax.set_xticks([])  # the test's φ bins are quantiles of the pilot inside each θ strip, not degrees
             ax.tick_params(labelsize=7)
-            ax.set_xlabel("φ′ [°]", fontsize=8)
-            ax.set_ylabel("θ′ bin edges [°] (pilot quantiles)", fontsize=8)
+            ax.set_xlabel("φ bins (pilot quantiles within each θ strip)", fontsize=8)
+            ax.set_ylabel("θ bin edges [°] (pilot quantiles)", fontsize=8)
             ax.set_title(f"test bins: {title} counts", fontsize=9)
         fig.colorbar(im, ax=top[:2], fraction=0.04, pad=0.01).ax.tick_params(labelsize=7)
         ax = top[2]
