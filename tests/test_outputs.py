@@ -73,7 +73,7 @@ def test_chi2_does_not_touch_the_parent_index(tmp_path, capsys):
     user = tmp_path / "mine"
     user.mkdir()
     (user / "index.html").write_text("my own page")
-    argv = ["chi2", "--warp", "uniform_disk", "--samples", "2000"]
+    argv = ["chi2", "--warp", "uniform_disk", "-n", "2000"]
     assert main([*argv, "-o", str(user / "r")]) == 0
     assert (user / "index.html").read_text() == "my own page"
     assert (user / "r" / "index.html").exists()
@@ -85,7 +85,7 @@ def test_chi2_does_not_touch_the_parent_index(tmp_path, capsys):
 
 def test_existing_file_where_a_folder_is_expected(tmp_path, capsys):
     (tmp_path / "f").write_text("x")
-    assert main(["chi2", "--warp", "uniform_disk", "--samples", "2000", "-o", str(tmp_path / "f")]) == 2
+    assert main(["chi2", "--warp", "uniform_disk", "-n", "2000", "-o", str(tmp_path / "f")]) == 2
     _one_line_error(capsys, "is an existing file, not a folder")
     scene = _scene(tmp_path)
     assert _render(scene, "--figures", tmp_path / "f") == 2

@@ -321,7 +321,7 @@ def _chi2_one(kind: str, name: str, a, t, n: int, threshold: float, prm: dict, e
     """One planned chi-square test (``prm``: parameters with the sweep point), with its own seed."""
     if kind == "bsdf":
         entry = entry or resolve_bsdfs([name], make)[0]
-        seed = test_seed("chi2", name, a, t, prm)
+        seed = test_seed("chi2", name, a, t, prm, n)  # the sample count is part of the identity
         shown = {"alpha": a, "theta": t, **prm} if a is not None else {"theta": t, **prm}
         try:
             bsdf = entry.make(a, prm)
