@@ -42,6 +42,7 @@ FILES = {
     "precise_floats": ("v 0.1234567890123456789 -1e-310 3.5E+2\nv 12345.678901234567 -0.0 1\n"
                        "v 2 1 7\nf 1 2 3\n", True),
     "no_final_newline": (_V + "f 1 2 3", True),
+    "unused_vertices": ("v 5 5 5\n" + _V + "v 9 9 9\nf 2 3 5\nf 5 3 2\n", True),
     # The general parser decides (mixed polygon sizes, indentation, tabs after keywords, non-ASCII).
     "mixed_polygons": (_V + "v 2 0 0\nf 1 2 3\nf 1 3 4 5\n", False),
     "indented": ("  " + _V + "f 1 2 3\n", False),
@@ -59,12 +60,29 @@ def test_fast_path_equals_general_parser(tmp_path, name):
     _same(load_obj(path), _general(path))
 
 
+def test_vertices_are_the_unique_referenced_positions(tmp_path):
+    """Position-only meshes keep the referenced positions in index order, as np.unique of the indices
+    gives them (the loader counts instead of sorting)."""
+    rng = np.random.default_rng(5)
+    pos = rng.random((50, 3))
+    tri = np.array([rng.choice(np.arange(0, 50, 2), 3, replace=False) for _ in range(40)])  # odd ones unused
+    path = tmp_path / "m.obj"
+    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in pos]
+    lines += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in tri]
+    path.write_text("".join(lines))
+    m = load_obj(path)
+    uniq, inv = np.unique(tri.ravel(), return_inverse=True)
+    np.testing.assert_array_equal(m.positions, pos[uniq])
+    np.testing.assert_array_equal(m.faces, inv.reshape(-1, 3))
+
+
 @pytest.mark.parametrize("text, message", [
     (_V + "f 1 2 9\n", "face references position 9"),
     (_V + "f 1 2\n", "at least 3 vertices"),
     (_V + "f 1/1 2 3\n", "does not match the form"),
     ("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "not finite"),
     (_V + "v 1 2\nf 1 2 3\n", "'v' statement"),
+    (_V + "f 1 2 3\nvn\n", "'vn' statement"),  # a bare keyword is a statement, not a line to skip
     (_V + _VN + "f 1 2 3\n", "every face vertex must reference one"),
 ])
 def test_files_with_errors_get_the_general_parsers_message(tmp_path, text, message):
