@@ -254,3 +254,34 @@ def test_cli_render_with_plugin(tmp_path, capsys):
 def test_module_is_importable_as_given():
     assert sys.modules["brdflab"].__version__
     assert callable(bl.render) and callable(bl.load_scene)
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_render_with_a_broken_plugin_is_a_located_error(tmp_path, capsys, workers):
+    """A plugin whose eval returns NaN stops the render with one located line, exit 2, no image."""
+    plugin = tmp_path / "nan_bsdf.py"
+    plugin.write_text(PLUGIN.read_text() + '''
+
+class NaNLambert(UniformLambert):
+    type_name = "nan_lambert"
+
+    def eval(self, wi, wo, uv=None):
+        f = super().eval(wi, wo, uv)
+        f[::7] = np.nan
+        return f
+''')
+    src = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"
+    path = _plugin_scene(tmp_path, src, {'bsdf type="diffuse"': 'bsdf type="nan_lambert"'})
+    out = tmp_path / "img.exr"
+    try:
+        status = main(["render", str(path), "--spp", "2", "--workers", workers, "--quiet", "--plugin", str(plugin),
+                       "-o", str(out)])
+    finally:
+        for n in ("uniform_lambert", "uniform_lambert_broken", "nan_lambert"):
+            plugins.unregister_bsdf(n)
+    err = capsys.readouterr().err.strip()
+    assert status == 2, err
+    pattern = r"plugin_scene\.xml:\d+: bsdf \"nan_lambert\": nan_lambert\.eval\(.*\): non-finite value"
+    assert re.search(pattern, err), err
+    assert "Traceback" not in err and len(err.splitlines()) == 1 and len(err) <= 300
+    assert not out.exists() and not out.with_suffix(".png").exists()

@@ -22,7 +22,7 @@ from brdflab.emitter.base import Emitter
 from brdflab.errors import BrdflabError, SceneError, clean, quoted
 from brdflab.film import Camera, Filter
 from brdflab.math.transform import Transform
-from brdflab.plugins import BUILTIN, UNSUPPORTED, build_bsdf, plugin_class  # noqa: F401 (re-exported)
+from brdflab.plugins import BUILTIN, UNSUPPORTED, build_bsdf, is_builtin, plugin_class  # noqa: F401 (re-exported)
 from brdflab.scene.geometry import Geometry
 from brdflab.scene.obj import Mesh, load_obj
 from brdflab.scene.xmlparser import ObjectSpec, parse_scene_file
@@ -293,6 +293,10 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         else:
             bsdf = build_bsdf(plugin_class("bsdf", bsdf_spec.type, bsdf_spec), bsdf_spec.props)
             _attach_textures(bsdf, bsdf_spec)
+            if not is_builtin(bsdf_spec.type):  # a user's BSDF: its results are checked on every call
+                from brdflab.validate.guard import SceneCheckedBSDF
+
+                bsdf = SceneCheckedBSDF(bsdf, bsdf_spec.file, bsdf_spec.line)
         bsdfs.append(bsdf)
         meshes.append(MeshInstance(mesh, len(bsdfs) - 1))
         if em_spec is not None:

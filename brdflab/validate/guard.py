@@ -190,3 +190,19 @@ def bsdf_params(bsdf) -> dict:
             val = np.asarray(v.value, dtype=float).ravel()
             out[k] = float(val[0]) if np.all(val == val[0]) else ",".join(f"{x:g}" for x in val)
     return out
+
+
+class SceneCheckedBSDF(CheckedBSDF):
+    """A user's BSDF in a scene: the same checks, but a broken contract is a located :class:`SceneError`
+    (``scene.xml:12: bsdf "phong": phong.eval(exponent=20): non-finite value … at wi=…, wo=…``), which the
+    renderer's workers pass back and the command line prints as one line (exit status 2)."""
+
+    def __init__(self, bsdf, file: str | None = None, line: int | None = None) -> None:
+        super().__init__(bsdf, params=bsdf_params(bsdf))
+        self.file, self.line = file, line
+
+    def fault(self, method: str, what: str, wi=None, other=None, other_name: str = "wo"):
+        from brdflab.errors import SceneError
+
+        text = str(PluginFault(method, self.name, self.params, what, wi, other, other_name))
+        return SceneError(f'bsdf "{self.name}": {text}', self.file, self.line)
