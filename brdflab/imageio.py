@@ -123,6 +123,9 @@ def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[f
             errors[i] = _write_error(paths[i], exc)
         took[i] = time.perf_counter() - t0
 
+    for path in paths:
+        if path.is_dir():
+            raise ImageError("is a folder; expected an image file name", path)
     try:
         for path in paths:
             try:
@@ -140,21 +143,27 @@ def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[f
         if failed is not None:
             raise failed
         with output_lock(paths[0].parent), _signals_blocked():
-            backups: list[tuple[Path, str | None]] = []
+            # [target, its previous contents moved aside (or None), whether the new file is in place]
+            done: list[list] = []
             try:
-                for path, tmp in zip(paths, temps, strict=True):
-                    backup = None
-                    if len(paths) > 1 and path.exists():
-                        backup = _temporary(path)
-                        os.replace(path, backup)
-                    backups.append((path, backup))
+                for path, tmp in list(zip(paths, temps, strict=True)):
+                    entry = [path, None, False]
+                    if len(paths) > 1 and os.path.lexists(path):
+                        entry[1] = _temporary(path)
+                        temps.append(entry[1])  # removed in the end if it is still there
+                        os.replace(path, entry[1])
+                    done.append(entry)
                     os.replace(tmp, path)
+                    entry[2] = True
             except OSError as exc:
-                for old, backup in reversed(backups):
+                # Undo: every target gets its previous contents back, or disappears if it had none.
+                for old, backup, placed in reversed(done):
                     if backup is not None:
                         os.replace(backup, old)
+                    elif placed:
+                        os.unlink(old)
                 raise _write_error(path, exc) from None
-            for _, backup in backups:
+            for _, backup, _ in done:
                 if backup is not None:
                     os.unlink(backup)
                     _TEMPORARIES.discard(backup)

@@ -1,6 +1,6 @@
 """Output safety: what brdflab may write, and where.
 
-* :func:`check_not_inputs` refuses an output path that is one of the run's inputs (a scene named
+* :func:`check_outputs` refuses an output path that is one of the run's inputs (a scene named
   ``scene.png`` whose render would replace it, ``-o sky.exr`` naming the environment map, a heatmap
   named like the reference image). Paths are compared after resolving links, and by inode when both exist.
 * :func:`output_folder` checks that a folder named by ``-o`` is not an existing file, and tells whether
@@ -31,8 +31,12 @@ def _key(path: Path) -> tuple:
         return ("path", os.path.normcase(os.path.abspath(os.path.realpath(path))))
 
 
-def check_not_inputs(outputs: list[str | Path], inputs: list[str | Path]) -> None:
-    """Raise :class:`BrdflabError` if any of ``outputs`` is the same file as any of ``inputs``."""
+def check_outputs(outputs: list[str | Path], inputs: list[str | Path]) -> None:
+    """Raise :class:`BrdflabError` if any of ``outputs`` is the same file as any of ``inputs``, or an existing
+    folder (checked before a run, so that no work is lost at the end)."""
+    for out in outputs:
+        if Path(out).is_dir():
+            raise BrdflabError(f"'{clean(out, 100)}' is a folder; expected an image file name")
     keys = {}
     for p in inputs:
         keys.setdefault(_key(Path(p)), Path(p))

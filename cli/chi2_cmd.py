@@ -92,14 +92,14 @@ def run(args: argparse.Namespace) -> int:
         name, alphas, thetas = args.warp, args.alpha, args.theta
         if args.param:
             raise BrdflabError("--param applies to --bsdf, not to --warp")
+    out = args.output or DEFAULT_REPORTS / f"chi2_{name.replace('/', '_')}"
+    parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
+    output_folder(out)
     with cluster_from_args(args) as cluster:
         bat = run_battery(n=n, bsdfs=[name] if args.bsdf else [],
                           warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
                           thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print,
                           cluster=cluster)
-    out = args.output or DEFAULT_REPORTS / f"chi2_{name.replace('/', '_')}"
-    parent_created = output_folder(out.parent) if args.output else False
-    output_folder(out)
     path = write_validation_report(bat, out, title=f"brdflab chi-square: {name}")
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:

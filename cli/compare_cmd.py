@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from brdflab.errors import BrdflabError, clean
-from brdflab.outputs import check_not_inputs
+from brdflab.outputs import check_outputs
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
             heatmap = heatmap.with_name(heatmap.name + ".png")
         if heatmap.suffix.lower() not in (".png", ".svg"):
             raise BrdflabError(f"--heatmap '{clean(heatmap, 100)}': expected a .png or .svg file name")
-        check_not_inputs([heatmap], [args.test, args.reference])
+        check_outputs([heatmap], [args.test, args.reference])
     test, ref = read_exr(args.test), read_exr(args.reference)
     try:
         m = compare(test, ref)

@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     """Load, render and write the images."""
     from brdflab.cluster import ClusterError
     from brdflab.imageio import write_images
-    from brdflab.outputs import check_not_inputs, output_folder
+    from brdflab.outputs import check_outputs, output_folder
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
     from brdflab.timing import fixed_costs_line, process_seconds
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     spp = args.spp or scene.spp
     cam = scene.camera
     # Refuse before rendering: every name this run could write (complete or partial) against every input.
-    check_not_inputs([*output_paths(args.scene, args.output, args.figures, spp),
+    check_outputs([*output_paths(args.scene, args.output, args.figures, spp),
                       *output_paths(args.scene, args.output, args.figures, 1, partial=True)], scene.inputs)
     if not args.quiet:
         print(f"{clean(args.scene, 120)}: {cam.width}×{cam.height}, {spp} spp, {scene.integrator_type}, "
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
                               "interrupted before the first pass finished; no image written")
         partial = (graceful.stop.is_set() or failure is not None) and stats.spp < spp
         exr, png = output_paths(args.scene, args.output, args.figures, stats.spp, partial)
-        check_not_inputs([exr, png], scene.inputs)
+        check_outputs([exr, png], scene.inputs)
         write_s = write_images(exr, png, image, extra={"brdflab_spp": str(stats.spp),
                                                        "brdflab_integrator": scene.integrator_type,
                                                        "brdflab_seconds": f"{stats.seconds:.3f}"})

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError, clean
-from brdflab.outputs import DEFAULT_REPORTS, check_not_inputs, index_root, output_folder
+from brdflab.outputs import DEFAULT_REPORTS, check_outputs, index_root, output_folder
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_plugin_option, load_plugins
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     stem = args.scene.stem
     written = [out / "report.html", out / f"{stem}_reference.png"]
     written += [out / f"{stem}_{n}_{s}spp{ext}" for n in integrators for s in spp for ext in (".exr", ".png")]
-    check_not_inputs(written, [args.scene, *([args.ref] if args.ref else [])])
+    check_outputs(written, [args.scene, *([args.ref] if args.ref else [])])
     with cluster_from_args(args) as cluster:
         study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
                           progress=lambda msg: print(msg, file=sys.stderr), cluster=cluster)

@@ -93,6 +93,16 @@ def test_existing_file_where_a_folder_is_expected(tmp_path, capsys):
     assert (tmp_path / "f").read_text() == "x"
 
 
+def test_partial_renders_are_named_partial_everywhere(tmp_path):
+    from brdflab.cli.render_cmd import output_paths
+
+    scene = tmp_path / "s.xml"
+    assert output_paths(scene, None, tmp_path / "figs", 12, partial=True)[0].name == "s_partial_12spp.exr"
+    assert output_paths(scene, None, tmp_path / "figs", 12)[1].name == "s_12spp.png"
+    assert output_paths(scene, tmp_path / "o.exr", None, 3, partial=True)[1].name == "o_partial_3spp.png"
+    assert output_paths(scene, None, None, 3)[0] == tmp_path / "s.exr"
+
+
 # -- the EXR + PNG pair ---------------------------------------------------------------------------------------------
 def _old_pair(tmp_path):
     exr, png = tmp_path / "out.exr", tmp_path / "out.png"
@@ -138,6 +148,30 @@ def test_failed_second_rename_restores_the_first(tmp_path, monkeypatch):
     with pytest.raises(io.ImageError, match="I/O error"):
         write_images(exr, png, np.ones((24, 32, 3), np.float32))
     assert exr.read_bytes() == exr_bytes and png.read_bytes() == png_bytes
+    _no_temporaries(tmp_path)
+
+
+def test_failed_rename_of_a_new_pair_leaves_neither(tmp_path, monkeypatch):
+    exr, png = tmp_path / "n.exr", tmp_path / "n.png"
+    real = os.replace
+
+    def flaky(src, dst):
+        if str(dst) == str(png):
+            raise OSError(errno.EIO, "I/O error")
+        return real(src, dst)
+
+    monkeypatch.setattr(io.os, "replace", flaky)
+    with pytest.raises(io.ImageError, match="I/O error"):
+        write_images(exr, png, np.ones((8, 8, 3), np.float32))
+    assert not exr.exists() and not png.exists()
+    _no_temporaries(tmp_path)
+
+
+def test_folder_named_like_an_output(tmp_path, capsys):
+    (tmp_path / "out.png").mkdir()
+    assert _render(_scene(tmp_path), "-o", tmp_path / "out.exr") == 2
+    _one_line_error(capsys, "out.png' is a folder; expected an image file name")
+    assert not (tmp_path / "out.exr").exists()
     _no_temporaries(tmp_path)
 
 
