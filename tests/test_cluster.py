@@ -144,7 +144,7 @@ def test_worker_killed_mid_render_gives_the_same_image(cluster, tmp_path):
     assert killed and killed["tasks"] >= 1 and killed["frac"] < 0.9, killed
     assert st.spp == 128
     assert np.array_equal(img, ref)
-    cluster.client.wait_for_workers(2, timeout=60)  # the nanny restarts the killed worker
+    # The nanny restarts the killed worker in the background; the tests after this one need only one worker.
 
 
 def _free_port() -> int:
