@@ -24,10 +24,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "and a self-contained report.html.")
     p.add_argument("scene", type=Path, help="Nori scene XML file")
     p.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis",
-                   help="comma-separated integrators (default: direct_ems,direct_mats,direct_mis)")
+                   help="comma-separated integrators, NAME or NAME:VARIANT (default: direct_ems,direct_mats,"
+                   "direct_mis; e.g. direct_mis,direct_mis:power compares the balance and power heuristics)")
     p.add_argument("--spp", default="1,4,16,64,256", help="comma-separated sample counts (default: 1,4,16,64,256)")
     p.add_argument("--ref", type=Path, help="reference EXR (default: a high-spp direct_mis render made first)")
-    p.add_argument("--ref-spp", type=count(1), help="spp of the self-made reference (default: 4 × the largest spp)")
+    p.add_argument("--runs", type=count(1), default=4, help="independent runs (seeds) per integrator "
+                   "(default 4); intervals, speed-ups and bias flags come from their spread")
+    p.add_argument("--ref-spp", type=count(1), help="spp of each of the 4 runs of the self-made reference "
+                   "(default: 4 × the largest spp, 16 × in total)")
+    p.add_argument("--resolution", metavar="WxH", help="render at this size instead of the camera's")
+    p.add_argument("--no-flip", action="store_true", help="skip HDR-FLIP")
+    p.add_argument("--no-mis-weights", action="store_true", help="skip the MIS weight images")
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
     p.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^64) (default 0)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
@@ -46,28 +53,42 @@ def _ints(text: str, what: str) -> list[int]:
     return values
 
 
+def _resolution(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise BrdflabError(f"--resolution: expected WIDTHxHEIGHT, got '{clean(text, 40)}'") from None
+    if w < 1 or h < 1:
+        raise BrdflabError(f"--resolution: sizes must be positive, got '{clean(text, 40)}'")
+    return w, h
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
     from brdflab.report.index import write_index
     from brdflab.report.variance import run_study, summary, write_report
-    from brdflab.scene.loader import PLUGINS
+    from brdflab.stats.jobs import validate_specs
 
     load_plugins(args)
-    integrators = [t.strip() for t in args.integrators.split(",") if t.strip()]
-    for name in integrators:
-        if name not in PLUGINS["integrator"]:
-            raise BrdflabError(f"unknown integrator '{clean(name)}'; valid: {', '.join(PLUGINS['integrator'])}")
+    integrators = validate_specs(args.integrators.split(","))
+    if not integrators:
+        raise BrdflabError("--integrators: no integrator given")
+    if len(set(integrators)) != len(integrators):
+        raise BrdflabError(f"--integrators: '{clean(args.integrators, 80)}' names an integrator twice")
     spp = _ints(args.spp, "--spp")
+    resolution = _resolution(args.resolution) if args.resolution else None
     out = args.output or DEFAULT_REPORTS / args.scene.stem
     parent_created = output_folder(out.parent) if args.output else False
     output_folder(out)
     stem = args.scene.stem
+    slug = [n.replace(":", "_") for n in integrators]
     written = [out / "report.html", out / f"{stem}_reference.png"]
-    written += [out / f"{stem}_{n}_{s}spp{ext}" for n in integrators for s in spp for ext in (".exr", ".png")]
+    written += [out / f"{stem}_{n}_{s}spp{ext}" for n in slug for s in spp for ext in (".exr", ".png")]
     check_outputs(written, [args.scene, *([args.ref] if args.ref else [])])
     with cluster_from_args(args) as cluster:
         study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
-                          progress=lambda msg: print(msg, file=sys.stderr), cluster=cluster)
+                          progress=lambda msg: print(msg, file=sys.stderr), runs=args.runs, resolution=resolution,
+                          flip=not args.no_flip, mis_weights=not args.no_mis_weights, cluster=cluster)
     path = write_report(study, out)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:

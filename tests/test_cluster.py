@@ -284,7 +284,8 @@ def test_report_on_the_cluster_gives_the_same_numbers(cluster, tmp_path, monkeyp
     from brdflab.cli.main import main
 
     scene = _report_scene(tmp_path)
-    args = ["report", str(scene), "--spp", "1,4", "--ref-spp", "8", "--integrators", "direct_ems,direct_mis"]
+    args = ["report", str(scene), "--spp", "1,4", "--ref-spp", "8", "--integrators", "direct_ems,direct_mis",
+            "--runs", "1", "--no-flip", "--no-mis-weights"]
     monkeypatch.delenv("BRDFLAB_CLUSTER", raising=False)
     assert main([*args, "-o", str(tmp_path / "local")]) == 0
     monkeypatch.setenv("BRDFLAB_CLUSTER", cluster.client.scheduler.address)  # the environment variable route

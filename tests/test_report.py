@@ -40,7 +40,8 @@ def report_dir(tmp_path_factory):
                           '<emitter type="area"><color name="radiance" value="1,1,1"/></emitter></mesh>',
                         {"quad.obj": QUAD_OBJ, "light.obj": LIGHT_OBJ}, name="tiny.xml")
     out = tmp / "reports" / "tiny"
-    assert main(["report", str(scene), "--spp", "1,2,4", "--ref-spp", "32", "-o", str(out)]) == 0
+    assert main(["report", str(scene), "--spp", "1,2,4", "--ref-spp", "32", "--runs", "2", "--workers", "1",
+                 "-o", str(out)]) == 0
     return out
 
 
@@ -50,6 +51,7 @@ def test_report_outputs(report_dir):
     assert {int(r["spp"]) for r in rows} >= {1, 2, 4}
     meta = json.loads((report_dir / "results.json").read_text())
     assert "independent seed" in meta["reference"]
+    assert any(r["flip"] is not None and 0 <= r["flip"] <= 1 for r in meta["rows"])  # HDR-FLIP beside relMSE
     for name in ("error_vs_time.png", "error_vs_time.svg", "error_vs_spp.svg", "relmse_map_direct_mis.png",
                  "tiny_direct_mis_4spp.exr", "tiny_direct_ems_1spp.png", "report.html"):
         assert (report_dir / name).exists(), name

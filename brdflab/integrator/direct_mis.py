@@ -48,6 +48,10 @@ class DirectMIS(Integrator):
 
     type_name = "direct_mis"
     KNOWN = {"heuristic": "string"}
+    #: Which terms ``li`` returns: ``"both"`` (the estimator), or for MIS weight images only the
+    #: weighted ``"emitter"`` or ``"bsdf"`` samples (camera-visible emission left out). The random numbers
+    #: drawn are the same, so with one seed the two parts add up to the estimate minus that emission.
+    parts = "both"
 
     def __init__(self, heuristic: str = "balance") -> None:
         if heuristic not in ("balance", "power"):
@@ -69,17 +73,20 @@ class DirectMIS(Integrator):
     def li(self, scene, o, d, tmax, rng: np.random.Generator) -> np.ndarray:
         """Radiance along camera rays (see module docstring)."""
         L, sp = trace_camera(scene, o, d, tmax)
+        if self.parts != "both":
+            L[:] = 0.0
         m = len(sp.index)
         if m == 0:
             return L
         k = light_dims(scene)
         u = point_uniforms(rng, len(o), sp, k + 3)
-        if scene.emitters:
+        if scene.emitters and self.parts != "bsdf":
             Lsp = light_term(scene, sp, u[:, :k],
                              lambda ls, p_bsdf: np.where(ls.delta, 1.0, mis_weight(ls.pdf, p_bsdf, self.beta)))
         else:
             Lsp = np.zeros((m, 3), order="F")
-        live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
-        accumulate(Lsp, live, weight, Le, mis_weight(p_b, p_l, self.beta))
+        if self.parts != "emitter":
+            live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
+            accumulate(Lsp, live, weight, Le, mis_weight(p_b, p_l, self.beta))
         set_rows(L, sp.index, Lsp)
         return L

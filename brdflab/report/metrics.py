@@ -116,3 +116,75 @@ def write_heatmap(path, test: np.ndarray, ref: np.ndarray, title: str = "relativ
     fmt = str(path).rsplit(".", 1)[-1].lower()
     _atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt))
     plt.close(fig)
+
+
+# -- HDR-FLIP ---------------------------------------------------------------------------------------------
+def flip_parameters(ref: np.ndarray) -> dict:
+    """HDR-FLIP's exposure range (start, stop, number of exposures) computed once from the reference.
+
+    NVIDIA's ``flip_evaluator`` derives c_start/c_stop from the reference's luminance (Andersson et al.
+    2021, HDR-FLIP §3); fixing them here makes every test image of a study — any integrator, any spp —
+    judged at the same exposures.
+    """
+    import flip_evaluator
+
+    r = np.ascontiguousarray(np.clip(np.nan_to_num(np.asarray(ref, dtype=np.float32)), 0, None))
+    _, _, params = flip_evaluator.evaluate(r, r, "HDR", applyMagma=False, computeMeanError=False)
+    return {k: params[k] for k in ("startExposure", "stopExposure", "numExposures")}
+
+
+def flip_error(test: np.ndarray, ref: np.ndarray, params: dict | None = None, with_map: bool = False):
+    """Mean HDR-FLIP error of ``test`` against ``ref`` (0 = identical, 1 = maximal); with ``with_map``
+    also the (H, W) per-pixel error map. Non-finite test pixels count as 0; negative values are clipped
+    (FLIP expects non-negative linear sRGB)."""
+    import flip_evaluator
+
+    test, ref = _check(test, ref)
+    t = np.ascontiguousarray(np.clip(np.nan_to_num(test, nan=0.0, posinf=0.0), 0, None), dtype=np.float32)
+    r = np.ascontiguousarray(np.clip(ref, 0, None), dtype=np.float32)
+    params = params or flip_parameters(r)
+    err, mean, _ = flip_evaluator.evaluate(r, t, "HDR", applyMagma=False, parameters=dict(params))
+    return (float(mean), np.asarray(err)[..., 0]) if with_map else float(mean)
+
+
+def signed_difference(test: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Per-pixel signed relative difference (x − r)/(r + 0.01), averaged over channels, (H, W)."""
+    test, ref = _check(test, ref)
+    return np.mean((test - ref) / (np.abs(ref) + EPS), axis=2)
+
+
+def write_signed_map(path, test: np.ndarray, ref: np.ndarray, title: str = "signed difference",
+                     limit: float | None = None) -> None:
+    """Diverging false-colour map of :func:`signed_difference`: blue too dark, red too bright (PNG/SVG).
+
+    The colour range is symmetric, ±``limit`` (default: the 99th percentile of |difference|).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from brdflab.imageio import _atomic_write
+
+    d = signed_difference(test, ref)
+    bad = ~np.isfinite(d)
+    lim = limit or max(float(np.percentile(np.abs(d[~bad]), 99)) if (~bad).any() else 1.0, 1e-6)
+    h, w = d.shape
+    fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6), dpi=100)
+    im = ax.imshow(np.where(bad, np.nan, d), cmap="RdBu_r", vmin=-lim, vmax=lim)
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=9)
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label="(x − r)/(r + 0.01): blue too dark, red too bright")
+    fig.tight_layout()
+    fmt = str(path).rsplit(".", 1)[-1].lower()
+    _atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt))
+    plt.close(fig)
+
+
+def crop(img: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """The region (x, y, w, h) of an (H, W, C) image; raises :class:`ImageError` when it is not inside."""
+    x, y, w, h = box
+    H, W = img.shape[:2]
+    if w <= 0 or h <= 0 or x < 0 or y < 0 or x + w > W or y + h > H:
+        raise ImageError(f"crop {x},{y},{w},{h} is not inside the {W}×{H} image")
+    return img[y:y + h, x:x + w]

@@ -39,7 +39,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -109,6 +109,10 @@ class CheckResult:
     reference_spp: int = 0
     seconds: float = 0.0
     reference_label: str = ""
+    estimate: np.ndarray | None = field(default=None, repr=False)
+    """brdflab's estimate (mean image), set by :func:`run_check`."""
+    runs: np.ndarray | None = field(default=None, repr=False)
+    """brdflab's individual runs, set by :func:`run_check`."""
 
     def verdict(self) -> str:
         """One line: consistent/biased, p-value, mean bias with its 99 % interval, block counts."""
@@ -126,7 +130,7 @@ class CheckResult:
 
     def to_dict(self) -> dict:
         """Plain-dict form (maps as nested lists)."""
-        d = asdict(self)
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("estimate", "runs")}
         d["signed_map"] = self.signed_map.astype(int).tolist()
         d["z_map"] = np.round(self.z_map, 3).tolist()
         d["bias_ci"] = list(self.bias_ci)
@@ -384,4 +388,5 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
     res.reference_label = est.label
     res.seconds = time.perf_counter() - t0
     res.estimate = est.mean.astype(np.float32)  # for the page
+    res.runs = est.runs
     return res

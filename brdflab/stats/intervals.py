@@ -1,6 +1,7 @@
 """Confidence intervals and multiple-comparison corrections used by checks and reports.
 
 * :func:`t_interval` — Student-t interval of a mean over independent runs.
+* :func:`positive_interval` — the same on log scale (delta method) for positive, skewed values.
 * :func:`welch_df` — Welch–Satterthwaite degrees of freedom of a sum of variance estimates
   (Welch 1947, eq. (9); Satterthwaite 1946).
 * :func:`holm` — Holm's step-down family-wise correction (Holm 1979): sort the m p-values,
@@ -30,6 +31,17 @@ def t_interval(values, level: float = 0.95) -> tuple[float, float, float]:
         return m, math.nan, math.nan
     half = float(stats.t.ppf(0.5 + level / 2, v.size - 1) * v.std(ddof=1) / math.sqrt(v.size))
     return m, m - half, m + half
+
+
+def positive_interval(values, level: float = 0.95) -> tuple[float, float, float]:
+    """(mean, low, high) for the mean of positive, skewed run values (relMSE, seconds): the t interval
+    of log(mean) by the delta method, log X̄ ± t_{K−1} · s/(√K · X̄) — never below zero."""
+    v = np.asarray(values, dtype=np.float64)
+    m = float(v.mean())
+    if v.size < 2 or m <= 0:
+        return m, math.nan, math.nan
+    half = float(stats.t.ppf(0.5 + level / 2, v.size - 1) * v.std(ddof=1) / math.sqrt(v.size) / m)
+    return m, m * math.exp(-half), m * math.exp(half)
 
 
 def welch_df(variances, dfs):
