@@ -9,3 +9,6 @@ brdflab render scenes/cbox/cbox_substrate_mis.xml --spp 1024 --seed 90003 -o ref
 brdflab render scenes/veach/veach_mis.xml         --spp 2048 --seed 90004 -o references/veach_mis.exr --quiet
 brdflab render scenes/envlit/envlit_mis.xml       --spp 2048 --seed 90005 -o references/envlit.exr --quiet
 brdflab render scenes/checker/checker_point.xml   --spp 1024 --seed 90006 -o references/checker_point.exr --quiet
+brdflab render scenes/lights/sphere_light_mis.xml   --spp 4096 --seed 90007 -o references/sphere_light.exr --quiet
+brdflab render scenes/lights/polygon_lights_mis.xml --spp 4096 --seed 90008 -o references/polygon_lights.exr --quiet
+brdflab render scenes/lights/mixed_lights_mis.xml   --spp 4096 --seed 90009 -o references/mixed_lights.exr --quiet

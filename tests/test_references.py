@@ -16,6 +16,7 @@ from tests.conftest import ROOT
     ("scenes/cbox/cbox_diffuse.xml", "references/cbox_diffuse.exr"),
     ("scenes/cbox/cbox_spheres.xml", "references/cbox_spheres.exr"),
     ("scenes/cbox/cbox_substrate.xml", "references/cbox_substrate.exr"),
+    ("scenes/lights/mixed_lights_mis.xml", "references/mixed_lights.exr"),
 ])
 def test_converges_to_reference(scene, ref):
     reference = read_exr(ROOT / ref)
