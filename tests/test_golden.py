@@ -192,6 +192,10 @@ def direction_grid(alpha: float) -> tuple[np.ndarray, np.ndarray]:
                 to = min(max(ti + dt, 0.0), 89.9999)
                 wi.append(direction(ti))
                 wo.append(direction(to, 180.0 + dp))
+    for ti in (90.5, 120.0, 180.0):  # ω_i below the surface: f = 0 and pdf = 0 (one-sided, §10.1)
+        for to in (0.0, 45.0, 100.0):
+            wi.append(direction(ti))
+            wo.append(direction(to, 180.0))
     return np.array(wi), np.array(wo)
 
 
@@ -471,3 +475,24 @@ def test_pdf_integrates_to_one(alpha, theta):
         total = _sphere_integral(pdf, axis, alpha)
         assert total == pytest.approx(expect, abs=1e-3), (type(bsdf).__name__, alpha, theta, total, expect)
     assert upper > 0.5
+
+
+@pytest.mark.filterwarnings("ignore:.*no emitter")
+def test_scene_file_defaults(tmp_path):
+    """Parameters omitted in the scene file take the spec's defaults (§10.2, §10.5, §10.6), as colours of 3."""
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import CAMERA, QUAD_OBJ, write_scene
+
+    body = '<integrator type="direct_ems"/>' + CAMERA + "".join(
+        f'<mesh type="obj"><string name="filename" value="q.obj"/><bsdf type="{t}"/></mesh>'
+        for t in ("diffuse", "roughconductor", "roughsubstrate"))
+    s = load_scene(write_scene(tmp_path, body, {"q.obj": QUAD_OBJ}))
+    diffuse, conductor, substrate = s.bsdfs
+    np.testing.assert_array_equal(diffuse.albedo.value, np.full(3, 0.5))
+    np.testing.assert_array_equal(conductor.R0.value, np.full(3, 0.5))
+    np.testing.assert_array_equal(substrate.kd.value, np.full(3, 0.5))
+    assert [conductor.alpha_value, substrate.alpha_value] == pytest.approx([0.1, 0.1], rel=1e-14)
+    assert (substrate.int_ior, substrate.ext_ior) == (ETA_INT, ETA_EXT)
+    wi, wo = np.array([direction(30.0)]), np.array([direction(40.0, 180.0)])
+    for b in s.bsdfs:
+        assert b.eval(wi, wo).shape == (1, 3)
