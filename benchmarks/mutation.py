@@ -63,7 +63,23 @@ DESELECT: list[str] = []
 
 
 #: Reviewed survivors that cannot change any result: mutant id → reason.
-EQUIVALENT: dict[str, str] = {}
+EQUIVALENT: dict[str, str] = {
+    "brdflab/bsdf/base.py:102:55:const 1.0->1.1": "the placeholder divisor of the entries the outer where sets "
+    "to 0 anyway",
+    "brdflab/bsdf/family.py:44:26:Eq->NotEq": "column 0 always equals itself, so the mutated test never skips a "
+    "slot: a table is also built for a slot that is equal in all members, which gives the same per-point values",
+    "brdflab/bsdf/family.py:55:28:const 0->1": "members of a family share class and scalar parameters and every "
+    "texture slot is replaced by the per-point values, so copying member 1 instead of member 0 is the same",
+    "brdflab/bsdf/microfacet.py:35:9:Gt->GtE": "at cos θ_h = 0 the division gives a non-finite D, which the "
+    "isfinite mask sets to 0 as before",
+    "brdflab/bsdf/roughconductor.py:107:49:const 1.0->1.1": "ω_h·ω_i of unit vectors never exceeds 1 (by more "
+    "than an ulp), so clipping at 1.1 instead of 1 changes nothing",
+    "brdflab/bsdf/roughsubstrate.py:112:57:const 1.0->1.1": "as for the conductor: ω_h·ω_i ≤ 1",
+    "brdflab/bsdf/fresnel.py:30:10:GtE->Gt": "at sin²θ_t = 1 exactly, cos θ_t = 0 and r_s = r_p = 1, so F = 1 "
+    "either way",
+    "brdflab/bsdf/fresnel.py:30:20:const 1.0->1.1": "for 1 ≤ sin²θ_t < 1.1 cos θ_t is clamped to 0, so r_s = r_p "
+    "= 1 and F = 1, the TIR value",
+}
 
 
 @dataclass
@@ -213,9 +229,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", type=float, default=0.0, help="stop after this many seconds (0: no limit)")
     ap.add_argument("--only", action="append", default=[], help="mutant id prefix (repeatable)")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
+    ap.add_argument("--summarize", type=Path, help="recompute the summary of a results .jsonl (current EQUIVALENT)")
     ap.add_argument("-o", "--output", type=Path, default=ROOT / "benchmarks" / "mutation_results.json")
     args = ap.parse_args(argv)
 
+    if args.summarize:
+        rows = [json.loads(line) for line in args.summarize.read_text().splitlines() if line.strip()]
+        for r in rows:
+            r["equivalent"] = EQUIVALENT.get(r["id"])
+        return report(rows, args.output, {"source": str(args.summarize)})
     mutants = [m for f in scoped_files() for m in find_mutants(f)]
     print(f"{len(mutants)} mutants in {len(scoped_files())} files", flush=True)
     if args.only:
@@ -236,6 +258,10 @@ def main(argv: list[str] | None = None) -> int:
                 shutil.copytree(src, tmp / part, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
             elif src.exists():
                 shutil.copy2(src, tmp / part)
+        # The sources as copied: the working tree may change while the run goes on (a rebase, an edit).
+        originals = {m.path: (tmp / m.path).read_text() for m in mutants}
+        for m in mutants:
+            apply(originals[m.path], m)  # every mutant still applies to the copied source
         status, _, secs = run_tests(tmp, args.timeout)
         print(f"baseline: {status} in {secs:.0f} s", flush=True)
         if status != "survived":
@@ -246,7 +272,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"budget reached after {k} mutants", flush=True)
                 break
             target = tmp / m.path
-            original = (ROOT / m.path).read_text()
+            original = originals[m.path]
             target.write_text(apply(original, m))
             try:
                 status, failed, secs = run_tests(tmp, args.timeout)
@@ -255,11 +281,19 @@ def main(argv: list[str] | None = None) -> int:
             eq = EQUIVALENT.get(m.id)
             results.append({**asdict(m), "id": m.id, "status": status, "killed_by": failed, "seconds": round(secs, 1),
                             "equivalent": eq})
+            with open(args.output.with_suffix(".jsonl"), "a") as log:  # partial results survive an interruption
+                log.write(json.dumps(results[-1]) + "\n")
             print(f"[{k + 1}/{len(mutants)}] {status:8s} {m.id}: {m.before!r} -> {m.after!r}"
                   f"{' (' + failed + ')' if failed else ''}{' [equivalent: ' + eq + ']' if eq else ''} {secs:.0f}s",
                   flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+    return report(results, args.output, {"seconds": round(time.monotonic() - t_start), "sample": args.sample,
+                                         "seed": args.seed})
+
+
+def report(results: list[dict], output: Path, extra: dict) -> int:
+    """Write the summary and results to ``output`` and print the score and the survivors."""
     killed = sum(r["status"] != "survived" for r in results)
     equivalent = sum(r["status"] == "survived" and bool(r["equivalent"]) for r in results)
     survivors = [r for r in results if r["status"] == "survived" and not r["equivalent"]]
@@ -267,12 +301,14 @@ def main(argv: list[str] | None = None) -> int:
     score = killed / denom if denom else float("nan")
     timeouts = sum(r["status"] == "timeout" for r in results)
     summary = {"mutants_run": len(results), "killed": killed, "timeouts": timeouts,
-               "equivalent": equivalent, "survived": len(survivors), "score": score,
-               "seconds": round(time.monotonic() - t_start), "sample": args.sample, "seed": args.seed}
-    args.output.write_text(json.dumps({"summary": summary, "results": results}, indent=1))
+               "equivalent": equivalent, "survived": len(survivors), "score": score, **extra}
+    output.write_text(json.dumps({"summary": summary, "results": results}, indent=1))
     print(json.dumps(summary))
     for r in survivors:
         print(f"SURVIVED {r['id']}: {r['before']!r} -> {r['after']!r}")
+    for r in results:
+        if r["status"] == "survived" and r["equivalent"]:
+            print(f"EQUIVALENT {r['id']}: {r['equivalent']}")
     return 0
 
 

@@ -496,3 +496,15 @@ def test_scene_file_defaults(tmp_path):
     wi, wo = np.array([direction(30.0)]), np.array([direction(40.0, 180.0)])
     for b in s.bsdfs:
         assert b.eval(wi, wo).shape == (1, 3)
+
+
+def test_sample_weight_guards():
+    """weight = f·cos θ_o/pdf (spec §10.1), 0 where the pdf is 0, cos θ_o ≤ 0 or the quotient overflows."""
+    from brdflab.bsdf.base import cos_weight
+
+    f = np.full((4, 3), 0.5)
+    wo = np.array([direction(60.0), direction(60.0), direction(100.0), direction(60.0)])
+    pdf = np.array([0.25, 0.0, 0.25, 1e-310])
+    w = cos_weight(f, wo, pdf)
+    np.testing.assert_allclose(w[0], 0.5 * np.cos(np.radians(60.0)) / 0.25, rtol=1e-15)
+    np.testing.assert_array_equal(w[1:], 0.0)
