@@ -508,3 +508,9 @@ def test_sample_weight_guards():
     w = cos_weight(f, wo, pdf)
     np.testing.assert_allclose(w[0], 0.5 * np.cos(np.radians(60.0)) / 0.25, rtol=1e-15)
     np.testing.assert_array_equal(w[1:], 0.0)
+
+
+def test_beckmann_warp_closed_end_is_the_horizon():
+    """ξ1 = 1 (tan²θ = ∞) maps to the unit horizon direction at φ = 2πξ2, not beyond it."""
+    w = warps.square_to_beckmann(np.array([[1.0, 0.0], [1.0, 0.25]]), 0.3)
+    np.testing.assert_allclose(w, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], atol=1e-15)

@@ -249,3 +249,17 @@ def test_power_selection_probabilities():
     np.testing.assert_allclose(s.emitter_cdf, np.cumsum(expected / expected.sum()), rtol=1e-12)
     s.set_emitter_selection("uniform")
     np.testing.assert_array_equal(s.emitter_pmf, np.full(3, 1 / 3))
+
+
+def test_point_light_sample_near_and_at_the_light():
+    """I/r² at distances below 1 too (no cut-off), pdf 1, direction toward the light; 0 at the light itself."""
+    from brdflab.emitter.point import PointLight
+
+    em = PointLight(np.array([0.0, 0.5, 0.0]), np.array([2.0, 1.0, 0.5]))
+    ref = np.array([[0.0, 0.0, 0.0], [0.3, 0.5, 0.0], [0.0, 0.5, 0.0]])
+    r = em.sample(ref, np.zeros((3, 3)))
+    np.testing.assert_allclose(r.radiance[:2], np.array([[2.0, 1.0, 0.5]]) / np.array([[0.25], [0.09]]), rtol=1e-14)
+    np.testing.assert_array_equal(r.radiance[2], 0.0)
+    np.testing.assert_allclose(r.wi[:2], [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]], atol=1e-15)
+    np.testing.assert_array_equal(r.pdf, 1.0)
+    np.testing.assert_allclose(r.dist[:2], [0.5, 0.3], rtol=1e-15)
