@@ -82,8 +82,6 @@ def test_render_bit_identical_to_local_for_any_task_size(cluster, tmp_path):
     assert not np.array_equal(img[..., 0], ref[..., 0])
 
 
-@pytest.mark.skip(reason="hangs since users' BSDFs in scenes are wrapped in the CheckedBSDF guard (445e7de); "
-                  "to be investigated — plugin classes in chi-square jobs are still tested below")
 def test_plugin_material_and_overrides_reach_the_workers(cluster, tmp_path):
     import brdflab as bl
     from brdflab import plugins

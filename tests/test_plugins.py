@@ -285,3 +285,16 @@ class NaNLambert(UniformLambert):
     assert re.search(pattern, err), err
     assert "Traceback" not in err and len(err.splitlines()) == 1 and len(err) <= 300
     assert not out.exists() and not out.with_suffix(".png").exists()
+
+
+def test_guarded_scene_bsdf_pickles(user_plugin):
+    """Scenes travel to cluster workers by pickle: the guard around a user's BSDF must survive it."""
+    import pickle
+
+    from brdflab.validate.guard import SceneCheckedBSDF
+
+    b = SceneCheckedBSDF(plugins.make_bsdf("uniform_lambert", {"scale": "0.5"}), "scene.xml", 7)
+    c = pickle.loads(pickle.dumps(b))
+    assert (c.file, c.line, c.scale, c.type_name) == ("scene.xml", 7, 0.5, "uniform_lambert")
+    wi = np.array([[0.0, 0.0, 1.0]])
+    assert np.array_equal(c.eval(wi, wi), b.eval(wi, wi))

@@ -97,6 +97,10 @@ class CheckedBSDF:
         self.reciprocal = bool(getattr(self.inner, "reciprocal", True))
 
     def __getattr__(self, item):
+        # Only the wrapped BSDF's own attributes: special names (pickle's __setstate__, copy's __deepcopy__ …)
+        # and 'inner' itself (absent while an unpickled proxy is being rebuilt) must not recurse into it.
+        if item == "inner" or (item.startswith("__") and item.endswith("__")):
+            raise AttributeError(item)
         return getattr(self.inner, item)
 
     def fault(self, method: str, what: str, wi=None, other=None, other_name: str = "wo") -> PluginFault:
