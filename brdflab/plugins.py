@@ -63,7 +63,7 @@ from typing import Any
 
 import numpy as np
 
-from brdflab.errors import BrdflabError, SceneError
+from brdflab.errors import BrdflabError, SceneError, clean
 from brdflab.scene.properties import PropertyList
 
 #: Built-in scene-object types: tag → type name → ``"module:Class"`` (imported on first use).
@@ -485,8 +485,8 @@ def build_bsdf(cls: type, props: PropertyList) -> Any:
 
 # -- helpers ----------------------------------------------------------------------------------------------
 def _short(text: str, n: int = 60) -> str:
-    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
-    return text if len(text) <= n else text[: n - 1] + "…"
+    """An echoed value made safe for a one-line message (:func:`brdflab.errors.clean`)."""
+    return clean(text, n)
 
 
 def _first_line(exc: BaseException) -> str:
