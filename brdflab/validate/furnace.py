@@ -23,11 +23,13 @@ the cosine, an unnormalised lobe).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from brdflab.validate.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
 from brdflab.validate.guard import CheckedBSDF, PluginFault, describe, format_params
+from brdflab.validate.results import CaseList
 from brdflab.validate.seeding import bsdf_identity, test_seed
 
 #: Luminance weights (Rec. 709).
@@ -206,7 +208,7 @@ def albedo_curve(name: str, make_bsdf, alpha: float | None, thetas: list[float],
 
 
 @dataclass
-class FurnaceResult:
+class FurnaceResult(CaseList):
     """Furnace results of one BSDF at several incident angles (iterable over its :class:`AlbedoPoint`s).
 
     Attributes
@@ -220,12 +222,9 @@ class FurnaceResult:
     name: str
     params: dict
     seed: int | None
+    cases_attr: ClassVar[str] = "points"
     points: list[AlbedoPoint]
 
-    @property
-    def passed(self) -> bool:
-        """Every angle passed."""
-        return bool(self.points) and all(p.passed for p in self.points)
 
     @property
     def max_albedo(self) -> float:
@@ -237,14 +236,6 @@ class FurnaceResult:
         """One line per angle."""
         return "\n".join(p.message for p in self.points)
 
-    def __iter__(self):
-        return iter(self.points)
-
-    def __len__(self) -> int:
-        return len(self.points)
-
-    def __getitem__(self, i):
-        return self.points[i]
 
 
 def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, seed: int | None = None,

@@ -8,12 +8,14 @@ formulas that needed care are noted in :data:`NOTES` and shown in the report.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.math import warps
+from brdflab.validate.results import CaseList
 
 NOTES = [
     "tan²θ is computed as (1 − cos²θ)/cos²θ from the clamped cosine (never tan of an angle), so D stays "
@@ -137,17 +139,14 @@ def run(seed: int = 0, bsdfs: dict[str, object] | None = None) -> list[Stability
 
 
 @dataclass
-class StabilityResult:
+class StabilityResult(CaseList):
     """Stability rows of one BSDF (or of the built-ins), iterable over its :class:`StabilityRow`s."""
 
     name: str
     seed: int | None
+    cases_attr: ClassVar[str] = "rows"
     rows: list[StabilityRow]
 
-    @property
-    def passed(self) -> bool:
-        """Every case passed."""
-        return bool(self.rows) and all(r.passed for r in self.rows)
 
     @property
     def message(self) -> str:
@@ -157,14 +156,6 @@ class StabilityResult:
                 f"{len(bad)} failed")
         return "\n".join([head, *(r.message for r in bad)])
 
-    def __iter__(self):
-        return iter(self.rows)
-
-    def __len__(self) -> int:
-        return len(self.rows)
-
-    def __getitem__(self, i):
-        return self.rows[i]
 
 
 def stability_test(bsdf=None, name: str | None = None, seed: int | None = None) -> StabilityResult:
