@@ -83,7 +83,7 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
             ["smallest detectable mean bias (80 % power)", f"{100 * result.min_detectable_bias:.2g} %"],
             ["smallest detectable bias of one block (median)", f"{100 * result.min_detectable_block_bias:.2g} %"],
             ["variance method", result.method],
-            ["block size", f"{result.block}×{result.block} px"],
+            ["block sizes tested", ", ".join(f"{b}×{b}" for b in (result.scales or [result.block])) + " px"],
             ["false-alarm level α", f"{result.alpha}"],
             ["spatial correlation factor F", f"{result.correlation_factor:.2f}"],
             ["user renders", str(result.user_renders)],
