@@ -149,6 +149,19 @@ def test_fused_area_lights_match_per_emitter_sampling(rel):
     assert abs(z) < 4, (z, est["fused"].mean(), est["plain"].mean())
 
 
+def test_fused_light_set_applies_only_to_constant_lights_of_positive_area():
+    """The fused set divides by each light's area: a zero-area light (degenerate triangles, built through the
+    API — the loader rejects it) or a textured one stays on the generic per-emitter path."""
+    from brdflab.emitter.area import AreaEmitter, AreaLightSet
+
+    light = AreaEmitter(np.ones(3))
+    light.area = 2.0
+    assert AreaLightSet.applies([light])
+    assert not AreaLightSet.applies([])
+    light.area = 0.0
+    assert not AreaLightSet.applies([light])
+
+
 @pytest.mark.parametrize("rel", ["scenes/veach/veach_mis.xml", "scenes/cbox/cbox_substrate.xml",
                                  "scenes/lights/mixed_lights_mis.xml"])
 def test_material_families_match_per_material_evaluation(rel, monkeypatch):
@@ -180,3 +193,10 @@ def test_material_families_match_per_material_evaluation(rel, monkeypatch):
         res[key] = [x[order] for x in (f, pdf, wo, w, p, sp.wi)]
     for x, y in zip(res["fam"], res["one"], strict=True):
         np.testing.assert_array_equal(x, y)
+
+
+def test_any_positive_is_the_reduction_it_replaces():
+    """The column-wise mask that skips shadow rays of zero contributions equals ``(rgb > 0).any(axis=1)``."""
+    rgb = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1e-300], [0.0, 2.0, 0.0], [3.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(common.any_positive(rgb), (rgb > 0).any(axis=1))
+    np.testing.assert_array_equal(common.any_positive(rgb), [False, True, True, True, False])

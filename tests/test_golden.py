@@ -514,3 +514,18 @@ def test_beckmann_warp_closed_end_is_the_horizon():
     """ξ1 = 1 (tan²θ = ∞) maps to the unit horizon direction at φ = 2πξ2, not beyond it."""
     w = warps.square_to_beckmann(np.array([[1.0, 0.0], [1.0, 0.25]]), 0.3)
     np.testing.assert_allclose(w, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], atol=1e-15)
+
+
+def test_mis_weights_by_hand():
+    """Balance w = p/(p+q) and power w = p²/(p²+q²) heuristics (Veach 1997, eq. 9.10/9.13), with limits.
+
+    A zero density gets weight 0; an infinite density (a pdf that overflowed) gets weight 1 and its
+    partner 0, so the two weights of a sample pair still sum to one.
+    """
+    from brdflab.integrator.direct_mis import mis_weight
+
+    p = np.array([1.0, 3.0, 0.0, np.inf, 2.0])
+    q = np.array([1.0, 1.0, 5.0, 2.0, np.inf])
+    np.testing.assert_array_equal(mis_weight(p, q, 1), [0.5, 0.75, 0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(mis_weight(p, q, 2), [0.5, 0.9, 0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(mis_weight(q, p, 1) + mis_weight(p, q, 1), [1.0, 1.0, 1.0, 1.0, 1.0])
