@@ -529,3 +529,38 @@ def test_mis_weights_by_hand():
     np.testing.assert_array_equal(mis_weight(p, q, 1), [0.5, 0.75, 0.0, 1.0, 0.0])
     np.testing.assert_array_equal(mis_weight(p, q, 2), [0.5, 0.9, 0.0, 1.0, 0.0])
     np.testing.assert_array_equal(mis_weight(q, p, 1) + mis_weight(p, q, 1), [1.0, 1.0, 1.0, 1.0, 1.0])
+
+
+def _ref_beckmann_normal(a, b, alpha) -> list[mp.mpf]:
+    t2 = -M(alpha) ** 2 * mp.log(1 - M(a))
+    ct = 1 / mp.sqrt(1 + t2)
+    st = mp.sqrt(t2) * ct
+    return [st * mp.cos(2 * mp.pi * M(b)), st * mp.sin(2 * mp.pi * M(b)), ct]
+
+
+def _ref_reflect(wi, h) -> list[mp.mpf]:
+    d = dotm(wi, h)
+    return [2 * d * hc - wc for hc, wc in zip(h, wi, strict=True)]
+
+
+def test_sampled_directions_by_hand():
+    """sample() maps (ξ1, ξ2, ξ3) as the spec says: the conductor reflects ω_i about a Beckmann normal
+    (ω_o = 2(ω_i·ω_h)ω_h − ω_i); the substrate does so when ξ3 < p_s = min(F(cos θ_i), 0.95), else it
+    draws ω_o cosine-weighted — checked against mpmath for several ω_i (also off the φ = 0 plane)."""
+    us = [(0.1, 0.2, 0.01), (0.5, 0.7, 0.02), (0.9, 0.35, 0.5), (0.3, 0.9, 0.99)]
+    u = np.array(us)
+    for alpha in (0.05, 0.3):
+        for theta, phi in ((0.0, 0.0), (40.0, 30.0), (75.0, 200.0)):
+            wi = np.tile(direction(theta, phi), (len(us), 1))
+            wim = vec(wi[0])
+            conductor = RoughConductor(R0=0.9, alpha=alpha).sample(wi, u)
+            substrate = RoughSubstrate(kd=0.5, alpha=alpha).sample(wi, u)
+            ps = min(ref_fresnel(wim[2], M(ETA_EXT), M(ETA_INT)), mp.mpf("0.95"))
+            for k, (a, b, c) in enumerate(us):
+                spec = _ref_reflect(wim, _ref_beckmann_normal(a, b, alpha))
+                cos = [mp.sqrt(M(a)) * mp.cos(2 * mp.pi * M(b)), mp.sqrt(M(a)) * mp.sin(2 * mp.pi * M(b)),
+                       mp.sqrt(1 - M(a))]
+                np.testing.assert_allclose(conductor.wo[k], [float(x) for x in spec], rtol=1e-9, atol=1e-13)
+                want = spec if M(c) < ps else cos
+                np.testing.assert_allclose(substrate.wo[k], [float(x) for x in want], rtol=1e-9, atol=1e-13,
+                                           err_msg=f"substrate α={alpha} θ={theta} u={us[k]}")

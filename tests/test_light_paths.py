@@ -141,11 +141,13 @@ CASES = [(s, sel) for s, sels in (("sphere_light", ("uniform",)), ("polygon_ligh
 
 @pytest.mark.parametrize("name, selection", CASES)
 def test_estimators_match_closed_forms(name, selection):
-    """Each estimator's mean at three floor points equals the closed form (z-test, Šidák over the 27
-    values per case: 3 points × 3 estimators × RGB; the smooth light's quadrature adds 0.3 %)."""
+    """Each estimator's mean at three floor points equals the closed form (z-test, Šidák over the 36
+    values per case: 3 points × 4 estimators × RGB; the smooth light's quadrature adds 0.3 %).
+
+    ``direct_whitted`` (one sample of every emitter) sees the same lights as emitter sampling."""
     n = 25_000
     zs = []
-    for integ in ("direct_ems", "direct_mats", "direct_mis"):
+    for integ in ("direct_ems", "direct_mats", "direct_mis", "direct_whitted"):
         s = load_scene(LIGHTS / f"{name}_mis.xml", integ)
         s.set_emitter_selection(selection)
         for j, x in enumerate(POINTS):
