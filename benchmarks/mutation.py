@@ -58,6 +58,11 @@ TESTS = [
     "tests/test_environment.py",
     "tests/test_substrate_tir.py",
     "tests/test_light_paths.py::test_estimators_agree",
+    # The chi-square battery of every built-in sampler and the consistency checks (sampled ω_o follow
+    # the pdf; weight = f·cos/pdf): last, since they cost the most.
+    "tests/test_validate.py::test_chi2_battery_all_samplers",
+    "tests/test_validate.py::test_consistency",
+    "tests/test_validate.py::test_furnace",
 ]
 DESELECT: list[str] = []
 

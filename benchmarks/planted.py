@@ -104,9 +104,10 @@ BUGS = [
     # --- dielectric / substrate ---------------------------------------------------------------------------
     Bug("fresnel-eta-swap", "dielectric Fresnel with η_i and η_t swapped (from inside)", FR,
         "eta_i, eta_t, ci = eta_ext, eta_int, cos_i", "eta_i, eta_t, ci = eta_int, eta_ext, cos_i"),
-    Bug("fresnel-no-tir", "total internal reflection not handled", FR,
+    # (Dropping the TIR mask alone is equivalent: cos θ_t is clamped to 0 there, which gives r_s = r_p = 1.)
+    Bug("fresnel-tir-zero", "total internal reflection gives F = 0 instead of 1", FR,
         "return np.where(tir | ~np.isfinite(f), 1.0, np.clip(f, 0.0, 1.0))",
-        "return np.where(~np.isfinite(f), 1.0, np.clip(f, 0.0, 1.0))"),
+        "return np.where(tir, 0.0, np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0))"),
     Bug("substrate-fdiff-exp", "substrate diffuse (1 − cos/2)⁴", RS,
         "(1.0 - (1.0 - 0.5 * ci) ** 5)", "(1.0 - (1.0 - 0.5 * ci) ** 4)"),
     Bug("substrate-fdiff-const", "substrate diffuse scale 28/(23) without 1/π", RS,
@@ -181,7 +182,8 @@ def run(cmd: list[str], workdir: Path, timeout: float) -> tuple[bool, str]:
     except subprocess.TimeoutExpired:
         return False, "timeout"
     out = r.stdout + r.stderr
-    first = next((line for line in out.splitlines() if line.startswith(("FAILED", "ERROR")) or "FAIL" in line), "")
+    lines = out.splitlines()
+    first = next((line for line in lines if line.startswith(("FAILED", "ERROR", "FAIL "))), "")
     return r.returncode == 0, first.strip()[:160]
 
 

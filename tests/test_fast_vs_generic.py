@@ -200,3 +200,19 @@ def test_any_positive_is_the_reduction_it_replaces():
     rgb = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1e-300], [0.0, 2.0, 0.0], [3.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
     np.testing.assert_array_equal(common.any_positive(rgb), (rgb > 0).any(axis=1))
     np.testing.assert_array_equal(common.any_positive(rgb), [False, True, True, True, False])
+
+
+@pytest.mark.parametrize("n_codes", [1, 3, 12])
+def test_sort_by_code_matches_a_plain_grouping(n_codes):
+    """Grouping shading points by code (one pass, per-code comparisons, or the radix argsort beyond 8
+    codes) equals the obvious grouping, also when the highest possible codes do not occur."""
+    rng = np.random.default_rng(77)
+    codes = list(range(n_codes))
+    code = rng.integers(-1, max(n_codes - 2, 1), 500)  # the last code(s) absent; −1 entries left out
+    order, runs = common.sort_by_code(code, codes)
+    want = [(c, np.flatnonzero(code == c)) for c in codes if np.any(code == c)]
+    if n_codes == 1:
+        want = [(0, np.flatnonzero(code >= 0))]
+    assert [c for c, _ in runs] == [c for c, _ in want]
+    for (_, sl), (_, idx) in zip(runs, want, strict=True):
+        np.testing.assert_array_equal(order[sl], idx)

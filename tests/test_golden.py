@@ -529,6 +529,9 @@ def test_mis_weights_by_hand():
     np.testing.assert_array_equal(mis_weight(p, q, 1), [0.5, 0.75, 0.0, 1.0, 0.0])
     np.testing.assert_array_equal(mis_weight(p, q, 2), [0.5, 0.9, 0.0, 1.0, 0.0])
     np.testing.assert_array_equal(mis_weight(q, p, 1) + mis_weight(p, q, 1), [1.0, 1.0, 1.0, 1.0, 1.0])
+    from brdflab.integrator.direct_mis import DirectMIS
+
+    assert (DirectMIS("balance").beta, DirectMIS("power").beta, DirectMIS().beta) == (1.0, 2.0, 1.0)
 
 
 def _ref_beckmann_normal(a, b, alpha) -> list[mp.mpf]:
@@ -564,3 +567,19 @@ def test_sampled_directions_by_hand():
                 want = spec if M(c) < ps else cos
                 np.testing.assert_allclose(substrate.wo[k], [float(x) for x in want], rtol=1e-9, atol=1e-13,
                                            err_msg=f"substrate α={alpha} θ={theta} u={us[k]}")
+
+
+def test_reflection_pdf_computes_d_itself():
+    """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|) (spec §10.5) when the caller passes no D(ω_h)."""
+    from brdflab.bsdf.microfacet import half_vector, reflection_pdf
+
+    for alpha in (0.05, 0.4):
+        wi, wo = direction_grid(alpha)
+        wh, _ = half_vector(wi, wo)
+        got = reflection_pdf(wh, wo, alpha)
+        want = []
+        for h, o in zip(wh, wo, strict=True):
+            hm, om = [M(c) for c in h], [M(c) for c in o]
+            want.append(float(ref_d(hm[2], M(alpha)) * hm[2] / (4 * abs(dotm(om, hm)))) if h[2] > 0 else 0.0)
+        assert np.count_nonzero(want) > 10
+        assert_close(got, np.array(want), 1e-9, f"reflection_pdf α={alpha}")
