@@ -479,14 +479,18 @@ def test_pdf_integrates_to_one(alpha, theta):
 
 @pytest.mark.filterwarnings("ignore:.*no emitter")
 def test_scene_file_defaults(tmp_path):
-    """Parameters omitted in the scene file take the spec's defaults (§10.2, §10.5, §10.6), as colours of 3."""
+    """Parameters omitted in the scene file take the spec's defaults (§9.2, §10.2, §10.5, §10.6), as colours
+    of 3."""
     from brdflab.scene.loader import load_scene
     from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 
-    body = '<integrator type="direct_ems"/>' + CAMERA + "".join(
+    body = '<integrator type="direct_ems"/>' + CAMERA + '<emitter type="pointlight"/>' + "".join(
         f'<mesh type="obj"><string name="filename" value="q.obj"/><bsdf type="{t}"/></mesh>'
         for t in ("diffuse", "roughconductor", "roughsubstrate"))
     s = load_scene(write_scene(tmp_path, body, {"q.obj": QUAD_OBJ}))
+    (point,) = s.emitters  # §9.2: position (0, 100, 0), intensity (1, 1, 1)
+    np.testing.assert_array_equal(point.position, [0.0, 100.0, 0.0])
+    np.testing.assert_array_equal(point.intensity, np.ones(3))
     diffuse, conductor, substrate = s.bsdfs
     np.testing.assert_array_equal(diffuse.albedo.value, np.full(3, 0.5))
     np.testing.assert_array_equal(conductor.R0.value, np.full(3, 0.5))
