@@ -587,3 +587,34 @@ def test_reflection_pdf_computes_d_itself():
             want.append(float(ref_d(hm[2], M(alpha)) * hm[2] / (4 * abs(dotm(om, hm)))) if h[2] > 0 else 0.0)
         assert np.count_nonzero(want) > 10
         assert_close(got, np.array(want), 1e-9, f"reflection_pdf α={alpha}")
+
+
+def test_power_selection_probabilities_by_hand():
+    """Power-proportional selection (spec §8, brdflab's radiometric form): Φ = π·lum(L_e)·A for an area
+    light, 4π·lum(I) for a point light, 4π·lum(L) for a constant environment, lum = 0.212671 R + 0.715160 G
+    + 0.072169 B; the selection pmf is Φ_e / Σ Φ (computed here in exact fractions)."""
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import ROOT
+
+    s = load_scene(ROOT / "scenes" / "lights" / "mixed_lights_mis.xml")
+    s.set_emitter_selection("power")
+    lum = [Fraction("0.212671"), Fraction("0.715160"), Fraction("0.072169")]
+
+    def lum_of(rgb):
+        return sum(w * Fraction(c) for w, c in zip(lum, rgb, strict=True))
+
+    v = [[Fraction(c) for c in line.split()[1:4]]
+         for line in (ROOT / "scenes/lights/meshes/triangle.obj").read_text().splitlines() if line.startswith("v ")]
+    e1 = [b - a for a, b in zip(v[0], v[1], strict=True)]
+    e2 = [b - a for a, b in zip(v[0], v[2], strict=True)]
+    cross = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    area = mp.sqrt(mp.mpf(sum(c * c for c in cross))) / 2
+    power = {"AreaEmitter": mp.pi * mp.mpf(lum_of(["9", "8", "7"])) * area,
+             "PointLight": 4 * mp.pi * mp.mpf(lum_of(["3", "3", "2.5"])),
+             "EnvironmentEmitter": 4 * mp.pi * mp.mpf(lum_of(["0.25", "0.3", "0.4"]))}
+    kinds = [type(e).__name__ for e in s.emitters]
+    assert sorted(kinds) == sorted(power)
+    total = sum(power.values())
+    np.testing.assert_allclose(s.emitter_pmf, [float(power[k] / total) for k in kinds], rtol=1e-12)
+    for e, k in zip(s.emitters, kinds, strict=True):
+        np.testing.assert_allclose(e.power(), float(power[k]), rtol=1e-12, err_msg=k)
