@@ -129,6 +129,36 @@ def test_rare_samples_no_false_alarm():
     assert not r.consistent and r.dark_blocks >= 1 and all(f["x"] + f["w"] > 72 for f in r.flagged)
 
 
+def test_scan_windows_and_constant_regions():
+    """The scan's window sums are exact (an empty window stays exactly 0) and its 1 × 1 windows are the
+    16 × 16 block tests; a region brdflab renders exactly (a light seen directly) tolerates float32
+    rounding but not a 1 % darker light, which is reported too dark (the sign of an infinite t)."""
+    from brdflab.stats import check as C
+
+    rng = np.random.default_rng(run_seed(1630, 0, "check"))
+    a = rng.random((6, 7, 4))
+    a[:3, :3] = 0.0
+    ws = C._window_sum(a, 2)
+    assert ws.shape == (5, 6, 4) and np.allclose(ws[2, 3], a[2:4, 3:5].sum(axis=(0, 1)))
+    assert (C._window_sum(a, 2)[:2, :2] == 0.0).all()
+    user = _draw(rng)
+    est = Estimate.from_runs([_draw(rng) for _ in range(4)], run_spp=16)
+    user[40:56, 80:96] = est.mean[40:56, 80:96] = est.runs[:, 40:56, 80:96] = 3.0  # an emitter
+    r = check_images([user * np.float32(1 + 3e-7)], est, user_spp=16)
+    assert r.consistent and r.scales == [16, 32]
+    dim = user.copy()
+    dim[40:56, 80:96] *= 0.99
+    r = check_images([dim], est, user_spp=16)
+    assert not r.consistent and r.bright_blocks == 0 and r.signed_map[2, 5] == -1
+    # 1 × 1 windows of the scan = the block tests of the base level.
+    x4, y4 = C._with_mean_channel(user), C._with_mean_channel(est.mean)
+    finite = np.ones(user.shape[:2], bool)
+    info: dict = {}
+    base = C._block_level((x4[None], x4, y4, x4 - y4, finite, est, 16), 16, info)
+    one = C._scan_level(C._scan_sums(C._with_mean_channel(est.runs), x4, y4, x4 - y4, finite, 16), 1, info, 16)
+    assert np.allclose(one["var"], base["var"]) and np.allclose(one["t"], base["t"])
+
+
 def _render(integrator: str, seed: int, spp: int = 32) -> np.ndarray:
     return run_job(RenderJob(CBOX, integrator, spp, seed, (64, 64), 1))[0]
 

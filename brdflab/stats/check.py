@@ -37,8 +37,17 @@ has expectation 0 when the user's renderer is unbiased. Var D_b is estimated in 
 
 Scales: blocks of s = 16, 32, 64 and 128 pixels (``levels``; sizes up to half the image's smaller
 side) are tested. A 16 × 16 block localises a defect; on a noisy render (BSDF sampling only, 64 spp)
-its smallest detectable bias is ~60 %, while a 64 × 64 block detects a region ~4 × smaller in relative
-bias, e.g. a patch 15 % too bright. Coarse blocks cost little: the family grows by a third.
+its smallest detectable bias is ~60 %, while a 64 × 64 block detects ~4 × smaller relative biases, e.g. a
+75-pixel patch 15 % too bright. With one render (``model``) the coarser sizes are a **scan**: every
+window of 2 × 2, 4 × 4 and 8 × 8 base blocks at every 16-pixel offset, so that some window lies inside
+any patch of ~1.25 window sides (aligned blocks can straddle it: measured, a 64-pixel grid missed the
++15 % patch that a shifted window finds). Window statistics come from additive per-block sums (means,
+squares, fourth powers, cross-products with ȳ; :func:`_scan_sums`), and the correlation factor of each
+size from the correlations measured once at the base block, so the scan costs little. The family then
+holds ~3.5 × more tests than the 16 × 16 grid alone: the per-test threshold rises from z ≈ 4.9 to
+z ≈ 5.2. (``welch`` and ``residual``: aligned blocks of each size.) Every variance is at least
+(ROUNDING · block mean)² — a region brdflab renders exactly (a light seen directly) differs in another
+renderer's float32 output by rounding, which is not a bias.
 
 Decision (one family at level α, default 0.01): the whole-image mean test (scalar (R+G+B)/3, normal
 reference distribution; the relative bias (mean x̄ / mean ȳ − 1) with its 99 % interval) gets α/2, the
@@ -77,6 +86,8 @@ ALPHA = 0.01
 BLOCK = 16
 #: Block sizes tested: BLOCK · 2^i for i < LEVELS (16, 32, 64, 128 px), one Holm family.
 LEVELS = 4
+#: Relative rounding floor of a block's standard deviation (float32 accumulation of a few thousand samples).
+ROUNDING = 1e-5
 #: Power reported for the smallest detectable bias.
 POWER = 0.8
 
@@ -168,7 +179,7 @@ def _with_mean_channel(a: np.ndarray) -> np.ndarray:
     return np.concatenate([a, a.mean(axis=-1, keepdims=True)], axis=-1)
 
 
-def _side_from_runs(runs: np.ndarray, valid: np.ndarray, block: int):
+def _side_from_runs(runs: np.ndarray, valid: np.ndarray, block: int, info: dict | None = None):
     """Variance (and df) of the block means of the mean of ``runs`` (K, H, W, 4); image-mean variance."""
     k = runs.shape[0]
     e = runs - runs.mean(axis=0)
@@ -179,6 +190,8 @@ def _side_from_runs(runs: np.ndarray, valid: np.ndarray, block: int):
         sig = np.where(cnt > 0, s2 / np.maximum(cnt, 1), 0.0)
         z = e / np.sqrt(np.where(B.expand(sig, block, valid.shape) > 0, B.expand(sig, block, valid.shape), 1.0))
     rho = B.correlation(z, valid)
+    if info is not None:
+        info["rho"] = rho
     f = B.correlation_factor(rho, block, runs.shape[-1])
     f_inf = B.correlation_factor(rho, None, runs.shape[-1])
     var = f * s2 / np.maximum(cnt, 1) ** 2 / k
@@ -188,7 +201,8 @@ def _side_from_runs(runs: np.ndarray, valid: np.ndarray, block: int):
     return var, df, mean_var, float(f[:3].mean())
 
 
-def _residual(r: np.ndarray, valid: np.ndarray, block: int, y: np.ndarray | None = None):
+def _residual(r: np.ndarray, valid: np.ndarray, block: int, y: np.ndarray | None = None,
+              info: dict | None = None):
     """Variance (and df) of the block means of r = x̄ − ȳ from its within-block spread (one render).
 
     With ``y`` (brdflab's estimate) each block's least-squares slope of r on y is removed too, so that a
@@ -219,6 +233,8 @@ def _residual(r: np.ndarray, valid: np.ndarray, block: int, y: np.ndarray | None
     rho = B.correlation(z, valid)
     c = r.shape[-1]
     f = B.correlation_factor(rho, block, c, centred_in=block * block)
+    if info is not None:
+        info["rho"] = _uncentred(rho, f, block * block)
     f_inf = B.correlation_factor(rho, None, c, centred_in=block * block)
     sig = ss / np.maximum(n - fitted * f, 1.0)  # E Σ (r − r̄)² = (n − F) σ² (one more F per fitted slope)
     var = f * sig / n
@@ -248,15 +264,17 @@ def _pool_neighbours(var: np.ndarray, refb: np.ndarray, cnt: np.ndarray) -> np.n
 
 
 def _single_render_var(estimate: Estimate, r_var: np.ndarray, y4: np.ndarray, finite: np.ndarray, block: int,
-                       cnt: np.ndarray, user_spp: int | None):
+                       cnt: np.ndarray, user_spp: int | None, info: dict | None = None):
     """Variance (and df) of the block differences D_b with one user render and brdflab's K runs.
 
     See the module docstring ("model"): brdflab's block variance scaled to the user's spp × η, plus
     brdflab's own, and at least the residual estimate (with per-block slope removed) of the difference.
     """
     k = estimate.runs.shape[0]
-    vy, dfy, mvy, fac_used = _side_from_runs(_with_mean_channel(estimate.runs), finite, block)
-    vres, dfr, mvr, _ = _residual(r_var, finite, block, y4)
+    info = {} if info is None else info
+    info["runs"], info["res"] = {}, {}
+    vy, dfy, mvy, fac_used = _side_from_runs(_with_mean_channel(estimate.runs), finite, block, info["runs"])
+    vres, dfr, mvr, _ = _residual(r_var, finite, block, y4, info["res"])
     scale = k * (estimate.run_spp / user_spp if user_spp and estimate.run_spp else 1.0)
     model = vy * scale
     ok = (model[..., :3] > 0) & (cnt > 0)
@@ -267,7 +285,97 @@ def _single_render_var(estimate: Estimate, r_var: np.ndarray, y4: np.ndarray, fi
     var = np.maximum(vm, vres)
     df = np.minimum(dfm, dfr)
     mean_var = np.maximum((eta * scale + 1.0) * mvy, mvr)
+    info.update(eta=eta, scale=scale, k=k)
     return var, df, mean_var, fac_used, eta
+
+
+def _uncentred(rho: dict, f0: np.ndarray, n0: int) -> dict:
+    """ρ(d) from correlations measured on residuals centred on n0-pixel block means: centring turns ρ
+    into ρ_c ≈ (ρ − F0/n0)/(1 − F0/n0) (see :func:`brdflab.stats.blocks.correlation_factor`), so
+    ρ = ρ_c (1 − F0/n0) + F0/n0; used to get F of larger windows from one measurement."""
+    g = np.asarray(f0, dtype=np.float64) / n0
+    return {d: r * (1.0 - g) + g for d, r in rho.items()}
+
+
+def _window_sum(a: np.ndarray, m: int) -> np.ndarray:
+    """Sums over every m × m window of base blocks: (By, Bx, C) → (By − m + 1, Bx − m + 1, C).
+
+    Direct sums of shifted copies (not differences of cumulative sums, whose round-off would give an
+    empty window a tiny non-zero difference and a zero variance: t = ∞)."""
+    ly, lx = a.shape[0] - m + 1, a.shape[1] - m + 1
+    rows = sum(a[i:i + ly] for i in range(m))
+    return sum(rows[:, j:j + lx] for j in range(m))
+
+
+def _scan_sums(runs4: np.ndarray, x4: np.ndarray, y4: np.ndarray, r_var: np.ndarray, finite: np.ndarray,
+               block: int) -> dict:
+    """Additive per-block sums from which every window of m × m blocks gets the statistics of
+    :func:`_single_render_var` (the scan of the single-render model)."""
+    e = runs4 - runs4.mean(axis=0)
+    e[:, ~finite] = 0.0
+    e2 = (e * e).sum(axis=0)
+    e4 = (e * e * e * e).sum(axis=0)
+    v = finite[..., None]
+    r, y = np.where(v, r_var, 0.0), np.where(v, y4, 0.0)
+    cnt = B.block_sum(v.astype(np.float64), block)
+    c = r - B.expand(B.block_sum(r, block) / np.maximum(cnt, 1), block, finite.shape)
+    c[~finite] = 0.0
+    c2 = c * c
+    sums = {"cnt": cnt, "d": np.where(v, x4 - y4, 0.0), "e2": e2, "e4": e4, "r": r, "rr": r * r, "y": y,
+            "yy": y * y, "ry": r * y, "c2": c2, "c4": c2 * c2}
+    return {k: (a if k == "cnt" else B.block_sum(a, block)) for k, a in sums.items()}
+
+
+def _scan_level(sums: dict, m: int, info: dict, block: int) -> dict:
+    """The single-render model test on every window of m × m blocks, at every block offset.
+
+    Window statistics from the additive sums (:func:`_scan_sums`): brdflab's run-to-run variance and its
+    kurtosis degrees of freedom (:mod:`brdflab.stats.blocks` eq. (2)), F of eq. (1) for the window's
+    size from the correlations measured once at the base block, the residual spread with the window's
+    mean and slope on ȳ removed (its kurtosis from residuals centred per base block).
+    """
+    w = {k: _window_sum(a, m) for k, a in sums.items()}
+    size, k = m * block, info["k"]
+    cnt = w["cnt"]
+    n = np.maximum(cnt, 1)
+    channels = w["d"].shape[-1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f_y = B.correlation_factor(info["runs"]["rho"], size, channels)
+        vy = f_y * w["e2"] / (k - 1) / n**2 / k
+        e2 = np.where(w["e2"] > 0, w["e2"], 1.0)
+        kap = np.clip(np.where(w["e2"] > 0, cnt * k * w["e4"] / e2**2, 3.0), 3.0, None)
+        dfy = np.clip(2.0 * cnt * (k - 1) / f_y / (kap - 1.0), 1.0, None)
+        vx = info["eta"] * info["scale"] * vy
+        vm, dfm = vx + vy, welch_df([vx, vy], [dfy, dfy])
+        f_r = B.correlation_factor(info["res"]["rho"], size, channels)
+        ss = w["rr"] - w["r"] ** 2 / n
+        syy = w["yy"] - w["y"] ** 2 / n
+        sry = w["ry"] - w["r"] * w["y"] / n
+        ss = np.maximum(ss - np.where(syy > 0, sry**2 / np.where(syy > 0, syy, 1.0), 0.0), 0.0)
+        vres = f_r * ss / np.maximum(n - 2.0 * f_r, 1.0) / n
+        kap_r = np.clip(np.where(w["c2"] > 0, cnt * w["c4"] / np.where(w["c2"] > 0, w["c2"], 1.0) ** 2, 3.0), 3.0,
+                        None)
+        dfr = np.clip(2.0 * np.maximum(n / f_r - 2.0, 1.0) / (kap_r - 1.0), 1.0, None)
+    var, df = np.maximum(vm, vres), np.minimum(dfm, dfr)
+    diff, refb = w["d"] / n, w["y"] / n
+    t, p = _t_tests(diff, var, df, cnt, refb)
+    return {"size": size, "step": block, "cnt": cnt, "diff": diff[..., :3], "refb": refb[..., :3], "var": var,
+            "df": df, "t": t, "p": p}
+
+
+def _t_tests(diff: np.ndarray, var: np.ndarray, df: np.ndarray, cnt: np.ndarray,
+             refb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """t statistics of R, G, B and their two-sided p-values.
+
+    The variance is at least (ROUNDING · block mean)²: where brdflab's runs are exactly constant (a light
+    seen directly) a float32 render by another program differs by rounding, which is no bias.
+    """
+    var = np.maximum(var, (ROUNDING * refb) ** 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(var > 0, diff / np.sqrt(np.where(var > 0, var, 1.0)),
+                     np.where(diff != 0, np.copysign(np.inf, diff), 0.0))
+    tb = np.where(cnt > 0, t, 0.0)[..., :3]
+    return tb, 2.0 * stats.t.sf(np.abs(tb), np.broadcast_to(df[..., :3], tb.shape))
 
 
 def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK, alpha: float = ALPHA,
@@ -327,8 +435,13 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     sides = (xs4, x4, y4, r_var, finite, estimate, user_spp)
     h, w = shape[:2]
     scales = [block << i for i in range(max(levels, 1)) if i == 0 or block << i <= min(h, w) // 2]
-    levels = [_block_level(sides, b) for b in scales]
-    base = levels[0]
+    info: dict = {}
+    base = _block_level(sides, block, info)
+    if "eta" in info:  # single-render model: every window of 2, 4, 8 blocks at every block offset
+        sums = _scan_sums(_with_mean_channel(estimate.runs), x4, y4, r_var, finite, block)
+        levels = [base] + [_scan_level(sums, b // block, info, block) for b in scales[1:]]
+    else:  # aligned blocks of each size
+        levels = [base] + [_block_level(sides, b) for b in scales[1:]]
     # One Holm family over the blocks of every scale and R, G, B.
     p_all = np.concatenate([lv["p"].ravel() for lv in levels])
     rej_all, adj_all = holm(p_all, alpha / 2)
@@ -355,12 +468,16 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     zbest = np.take_along_axis(tb, best[..., None], axis=-1)[..., 0]
     signed = np.where(base["rej"].any(axis=-1), np.sign(zbest), 0).astype(np.int8)
     for lv in levels[1:]:
-        m = lv["size"] // block
         lb = np.argmax(np.abs(lv["t"]), axis=-1)
         lz = np.take_along_axis(lv["t"], lb[..., None], axis=-1)[..., 0]
         coarse = np.where(lv["rej"].any(axis=-1), np.sign(lz), 0).astype(np.int8)
-        up = np.repeat(np.repeat(coarse, m, 0), m, 1)[: signed.shape[0], : signed.shape[1]]
-        signed = np.where(signed == 0, up, signed)
+        r, cover = lv["step"] // block, lv["size"] // block
+        for di in range(cover):
+            for dj in range(cover):
+                ys, xs = np.arange(coarse.shape[0]) * r + di, np.arange(coarse.shape[1]) * r + dj
+                iy, ix = ys < signed.shape[0], xs < signed.shape[1]
+                cell = np.ix_(ys[iy], xs[ix])
+                signed[cell] = np.where(signed[cell] == 0, coarse[np.ix_(iy, ix)], signed[cell])
     # Power.
     zp = stats.norm.ppf(POWER)
     mdb = (stats.norm.ppf(1 - alpha / 4) + zp) * sd / m_ref if m_ref > 0 else math.nan
@@ -373,13 +490,13 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     mdbb = float(np.median(rel_best[np.isfinite(rel_best)])) if np.isfinite(rel_best).any() else math.nan
     flagged = []
     for lv in levels:
-        b = lv["size"]
+        b, step = lv["size"], lv["step"]
         lb = np.argmax(np.where(lv["rej"], np.abs(lv["t"]), -1.0), axis=-1)
         for by, bx in zip(*np.nonzero(lv["rej"].any(axis=-1)), strict=True):
             c = int(lb[by, bx])
             tv, rb = float(lv["t"][by, bx, c]), lv["refb"][by, bx, c]
-            flagged.append({"x": int(bx * b), "y": int(by * b), "w": int(min(b, w - bx * b)),
-                            "h": int(min(b, h - by * b)), "channel": "RGB"[c],
+            flagged.append({"x": int(bx * step), "y": int(by * step), "w": int(min(b, w - bx * step)),
+                            "h": int(min(b, h - by * step)), "channel": "RGB"[c],
                             "sign": "too bright" if tv > 0 else "too dark", "t": tv,
                             "p_adjusted": float(lv["adj"][by, bx, c]),
                             "relative_difference": float(lv["diff"][by, bx, c] / rb) if rb else None})
@@ -392,7 +509,7 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
         flagged=flagged, user_renders=len(user), scales=scales)
 
 
-def _block_level(sides, block: int) -> dict:
+def _block_level(sides, block: int, info: dict | None = None) -> dict:
     """Block differences, their variance, degrees of freedom, t and two-sided p at one block size."""
     xs4, x4, y4, r_var, finite, estimate, user_spp = sides
     cnt = B.block_sum(finite[..., None].astype(np.float64), block)
@@ -417,19 +534,15 @@ def _block_level(sides, block: int) -> dict:
         method = "welch"
     elif estimate.runs is not None:
         var, df, mean_var, fac_used, eta = _single_render_var(estimate, r_var, y4, finite, block, cnt,
-                                                              user_spp)
+                                                              user_spp, info)
         method = f"model (brdflab's noise at the user's spp × η = {eta:.2f}, at least the residual spread)"
     else:
         var, df, mean_var, fac_used = _residual(r_var, finite, block)
         var = _pool_neighbours(var, refb, cnt)
         method = "residual"
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(var > 0, diff / np.sqrt(np.where(var > 0, var, 1.0)), np.where(diff != 0, np.inf, 0.0))
-    t = np.where(cnt > 0, t, 0.0)
-    tb = t[..., :3]
-    p_block = 2.0 * stats.t.sf(np.abs(tb), np.broadcast_to(df[..., :3], tb.shape))
-    return {"size": block, "cnt": cnt, "diff": diff[..., :3], "refb": refb[..., :3], "var": var, "df": df,
-            "t": tb, "p": p_block, "mean_var": mean_var, "fac": fac_used, "method": method}
+    tb, p_block = _t_tests(diff, var, df, cnt, refb)
+    return {"size": block, "step": block, "cnt": cnt, "diff": diff[..., :3], "refb": refb[..., :3], "var": var,
+            "df": df, "t": tb, "p": p_block, "mean_var": mean_var, "fac": fac_used, "method": method}
 
 
 def reference_jobs(scene: Path, integrator: str, spp: int, runs: int, seed: int,
