@@ -74,6 +74,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import stats
+from scipy.ndimage import maximum_filter
 
 from brdflab.errors import ImageError
 from brdflab.stats import blocks as B
@@ -467,17 +468,9 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     best = np.argmax(np.abs(tb), axis=-1)
     zbest = np.take_along_axis(tb, best[..., None], axis=-1)[..., 0]
     signed = np.where(base["rej"].any(axis=-1), np.sign(zbest), 0).astype(np.int8)
+    base["shown"] = base["rej"].any(axis=-1)
     for lv in levels[1:]:
-        lb = np.argmax(np.abs(lv["t"]), axis=-1)
-        lz = np.take_along_axis(lv["t"], lb[..., None], axis=-1)[..., 0]
-        coarse = np.where(lv["rej"].any(axis=-1), np.sign(lz), 0).astype(np.int8)
-        r, cover = lv["step"] // block, lv["size"] // block
-        for di in range(cover):
-            for dj in range(cover):
-                ys, xs = np.arange(coarse.shape[0]) * r + di, np.arange(coarse.shape[1]) * r + dj
-                iy, ix = ys < signed.shape[0], xs < signed.shape[1]
-                cell = np.ix_(ys[iy], xs[ix])
-                signed[cell] = np.where(signed[cell] == 0, coarse[np.ix_(iy, ix)], signed[cell])
+        signed = _paint_coarse(signed, lv, block)
     # Power.
     zp = stats.norm.ppf(POWER)
     mdb = (stats.norm.ppf(1 - alpha / 4) + zp) * sd / m_ref if m_ref > 0 else math.nan
@@ -492,7 +485,7 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     for lv in levels:
         b, step = lv["size"], lv["step"]
         lb = np.argmax(np.where(lv["rej"], np.abs(lv["t"]), -1.0), axis=-1)
-        for by, bx in zip(*np.nonzero(lv["rej"].any(axis=-1)), strict=True):
+        for by, bx in zip(*np.nonzero(lv["shown"]), strict=True):
             c = int(lb[by, bx])
             tv, rb = float(lv["t"][by, bx, c]), lv["refb"][by, bx, c]
             flagged.append({"x": int(bx * step), "y": int(by * step), "w": int(min(b, w - bx * step)),
@@ -507,6 +500,44 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
         min_detectable_bias=float(mdb), min_detectable_block_bias=mdbb, correlation_factor=base["fac"],
         nonfinite=nonfinite, signed_map=signed, z_map=np.where(base["cnt"][..., 0] > 0, zbest, 0.0),
         flagged=flagged, user_renders=len(user), scales=scales)
+
+
+def _covered(a: np.ndarray, lv: dict, block: int, shape: tuple[int, int]):
+    """For each position of level ``lv``, the (row, column) index arrays of the base cells it covers, as
+    pairs (level slice mask, base cell index) per offset inside the window."""
+    r, cover = lv["step"] // block, lv["size"] // block
+    for di in range(cover):
+        for dj in range(cover):
+            ys, xs = np.arange(a.shape[0]) * r + di, np.arange(a.shape[1]) * r + dj
+            iy, ix = ys < shape[0], xs < shape[1]
+            yield np.ix_(iy, ix), np.ix_(ys[iy], xs[ix])
+
+
+def _paint_coarse(signed: np.ndarray, lv: dict, block: int) -> np.ndarray:
+    """Mark on the base grid the significant windows of a coarser level that show something new.
+
+    Each region is shown at the finest size that detects it: a window is skipped when a base cell it
+    covers is already marked with its sign; of overlapping windows only the local maxima of |t| (within
+    half a window) are drawn, so a patch found by 128-pixel windows at every offset is not drawn as the
+    union of them all. Sets ``lv["shown"]`` (the windows listed in ``flagged``).
+    """
+    lb = np.argmax(np.abs(lv["t"]), axis=-1)
+    lz = np.take_along_axis(lv["t"], lb[..., None], axis=-1)[..., 0]
+    rej = lv["rej"].any(axis=-1)
+    sign = np.where(rej, np.sign(lz), 0).astype(np.int8)
+    explained = np.zeros(sign.shape, bool)
+    for lvl, cell in _covered(sign, lv, block, signed.shape):
+        explained[lvl] |= (signed[cell] == sign[lvl]) & (sign[lvl] != 0)
+    score = np.where(rej & ~explained, np.abs(lz), -1.0)
+    half = max(1, (lv["size"] // lv["step"]) // 2)
+    peak = maximum_filter(score, size=2 * half + 1, mode="constant", cval=-1.0)
+    shown = (score >= 0) & (score >= peak)
+    lv["shown"] = shown
+    paint = np.where(shown, sign, 0).astype(np.int8)
+    out = signed.copy()
+    for lvl, cell in _covered(paint, lv, block, signed.shape):
+        out[cell] = np.where(out[cell] == 0, paint[lvl], out[cell])
+    return out
 
 
 def _block_level(sides, block: int, info: dict | None = None) -> dict:
