@@ -32,6 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "brdflab_spp attribute, else the scene's sampleCount); with one render, brdflab's variance "
                    "at this spp is a lower bound of the variance used")
     p.add_argument("--block", type=int, default=16, help="block side in pixels (default 16)")
+    p.add_argument("--levels", type=count(1, 8), default=4, help="block sizes BLOCK·2^i for i < LEVELS, one "
+                   "family (default 4: 16, 32, 64, 128 px; with one render every window at every BLOCK offset); "
+                   "1 = BLOCK only")
     p.add_argument("--alpha", type=float, default=0.01, help="family-wise false-alarm level (default 0.01)")
     p.add_argument("--seed", type=seed, default=0, help="base seed of brdflab's runs, in [0, 2^64)")
     p.add_argument("--workers", type=count(1, 256), help="worker processes (default: all cores)")
@@ -82,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         # loaded there from its path: a shared file system); the runs' seeds make the result placement-free.
         res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
                         args.alpha, 1 if cluster else args.workers, progress=say, user_spp=user_spp,
-                        map_fn=map if cluster is None else cluster.imap)
+                        map_fn=map if cluster is None else cluster.imap, levels=args.levels)
     out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
     page = write_check(out, args.renders, images, res, args.scene)
     print(res.verdict())

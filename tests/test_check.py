@@ -211,9 +211,9 @@ def test_check_cli(tmp_path, cbox_trials, capsys):
     assert d["consistent"] and d["method"] == "welch" and d["user_renders"] == 2 and d["reference_runs"] == 3
     assert (tmp_path / "c1" / "check.html").stat().st_size > 10_000
     assert main(["check", str(tmp_path / "bad.exr"), "--scene", str(scene), "--spp", "32", "--runs", "3",
-                 "-o", str(tmp_path / "c2"), "--quiet"]) == 1
+                 "--levels", "1", "-o", str(tmp_path / "c2"), "--quiet"]) == 1
     d = json.loads((tmp_path / "c2" / "check.json").read_text())
-    assert d["method"].startswith("model") and d["dark_blocks"] >= 1 and not d["consistent"]
+    assert d["method"].startswith("model") and d["dark_blocks"] >= 1 and not d["consistent"] and d["scales"] == [16]
     assert all(f["sign"] == "too dark" and f["y"] < 32 for f in d["flagged"])
     # Usage errors: exit 2, nothing written.
     write_exr(tmp_path / "small.exr", ems[:32])

@@ -397,6 +397,9 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
         Samples per pixel of each user render, if known: with one render, the variance is then also
         predicted from brdflab's run-to-run variance scaled to that sample count, and the larger of the
         two estimates is used (see module docstring).
+    levels
+        Block sizes ``block · 2^i`` for i < ``levels`` (those up to half the image's smaller side) are
+        tested in one family; 1 tests ``block``-sized blocks only.
 
     Examples
     --------
@@ -440,14 +443,14 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     base = _block_level(sides, block, info)
     if "eta" in info:  # single-render model: every window of 2, 4, 8 blocks at every block offset
         sums = _scan_sums(_with_mean_channel(estimate.runs), x4, y4, r_var, finite, block)
-        levels = [base] + [_scan_level(sums, b // block, info, block) for b in scales[1:]]
+        tiers = [base] + [_scan_level(sums, b // block, info, block) for b in scales[1:]]
     else:  # aligned blocks of each size
-        levels = [base] + [_block_level(sides, b) for b in scales[1:]]
+        tiers = [base] + [_block_level(sides, b) for b in scales[1:]]
     # One Holm family over the blocks of every scale and R, G, B.
-    p_all = np.concatenate([lv["p"].ravel() for lv in levels])
+    p_all = np.concatenate([lv["p"].ravel() for lv in tiers])
     rej_all, adj_all = holm(p_all, alpha / 2)
-    offs = np.cumsum([0] + [lv["p"].size for lv in levels])
-    for i, lv in enumerate(levels):
+    offs = np.cumsum([0] + [lv["p"].size for lv in tiers])
+    for i, lv in enumerate(tiers):
         lv["rej"] = rej_all[offs[i]:offs[i + 1]].reshape(lv["p"].shape)
         lv["adj"] = adj_all[offs[i]:offs[i + 1]].reshape(lv["p"].shape)
     # Whole-image mean test on (R+G+B)/3.
@@ -469,7 +472,7 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     zbest = np.take_along_axis(tb, best[..., None], axis=-1)[..., 0]
     signed = np.where(base["rej"].any(axis=-1), np.sign(zbest), 0).astype(np.int8)
     base["shown"] = base["rej"].any(axis=-1)
-    for lv in levels[1:]:
+    for lv in tiers[1:]:
         signed = _paint_coarse(signed, lv, block)
     # Power.
     zp = stats.norm.ppf(POWER)
@@ -482,7 +485,7 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     rel_best = np.where((refb[..., :3] > 0) & np.isfinite(rel), rel, np.inf).min(axis=-1)
     mdbb = float(np.median(rel_best[np.isfinite(rel_best)])) if np.isfinite(rel_best).any() else math.nan
     flagged = []
-    for lv in levels:
+    for lv in tiers:
         b, step = lv["size"], lv["step"]
         lb = np.argmax(np.where(lv["rej"], np.abs(lv["t"]), -1.0), axis=-1)
         for by, bx in zip(*np.nonzero(lv["shown"]), strict=True):
@@ -587,7 +590,8 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
               seed: int = 0, ref: np.ndarray | None = None, ref_var: np.ndarray | None = None,
               block: int = BLOCK, alpha: float = ALPHA, workers: int | None = None,
               map_fn: Callable = map, progress: Callable[[str], None] | None = None,
-              resolution: tuple[int, int] | None = None, user_spp: int | None = None) -> CheckResult:
+              resolution: tuple[int, int] | None = None, user_spp: int | None = None,
+              levels: int = LEVELS) -> CheckResult:
     """Render brdflab's estimate (unless ``ref`` is given) and run :func:`check_images`.
 
     The ``runs`` renders are independent jobs (:func:`reference_jobs`) evaluated by ``map_fn``;
@@ -611,7 +615,7 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
                              f"{images[0].shape[1]}×{images[0].shape[0]}")
         est = Estimate.from_runs(images, f"brdflab {integrator}, {runs} runs × {spp} spp, independent seeds", spp)
         k = runs
-    res = check_images(user, est, block, alpha, user_spp)
+    res = check_images(user, est, block, alpha, user_spp, levels)
     res.reference_runs, res.reference_spp = k, spp if k else 0
     res.reference_label = est.label
     res.seconds = time.perf_counter() - t0
