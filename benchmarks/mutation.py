@@ -89,6 +89,12 @@ EQUIVALENT: dict[str, str] = {
     "either way",
     "brdflab/bsdf/fresnel.py:30:20:const 1.0->1.1": "for 1 ≤ sin²θ_t < 1.1 cos θ_t is clamped to 0, so r_s = r_p "
     "= 1 and F = 1, the TIR value",
+    "brdflab/emitter/area.py:313:48:Gt->GtE": "AreaLightSet is built only when AreaLightSet.applies() holds, which "
+    "requires every area > 0",
+    "brdflab/emitter/area.py:311:52:Gt->GtE": "as above: every area is > 0 when the fused set is built",
+    "brdflab/integrator/direct_whitted.py:36:55:Gt->GtE": "tracing shadow rays also for zero contributions "
+    "changes only the work: each such contribution is 0 · V = 0",
+    "brdflab/bsdf/roughsubstrate.py:147:65:const 2->3": "the Beckmann warp reads only the first two columns of u",
 }
 
 

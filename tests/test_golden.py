@@ -618,3 +618,19 @@ def test_power_selection_probabilities_by_hand():
     np.testing.assert_allclose(s.emitter_pmf, [float(power[k] / total) for k in kinds], rtol=1e-12)
     for e, k in zip(s.emitters, kinds, strict=True):
         np.testing.assert_allclose(e.power(), float(power[k]), rtol=1e-12, err_msg=k)
+
+
+def test_point_light_sample_by_hand():
+    """§9.2: ω = (p − x)/‖p − x‖, L = I/‖p − x‖², pdf 1; a point at the light itself gets nothing (no 0/0)."""
+    from brdflab.emitter.point import PointLight
+
+    light = PointLight(np.array([0.5, 2.0, -1.0]), np.array([3.0, 2.0, 1.0]))
+    x = np.array([[0.5, 0.0, -1.0], [1.5, 2.0, -1.0], [0.5, 2.0, -1.0], [0.0, 0.5, 0.0]])
+    r = light.sample(x, np.zeros((4, 3)))
+    d = light.position - x
+    r2 = np.sum(d * d, axis=1)
+    np.testing.assert_allclose(r.radiance[[0, 1, 3]], light.intensity / r2[[0, 1, 3], None], rtol=1e-15)
+    np.testing.assert_array_equal(r.radiance[2], 0.0)
+    np.testing.assert_allclose(r.wi[[0, 1, 3]], d[[0, 1, 3]] / np.sqrt(r2[[0, 1, 3], None]), rtol=1e-15)
+    np.testing.assert_allclose(r.dist, np.sqrt(r2), rtol=1e-15)
+    np.testing.assert_array_equal(r.pdf, 1.0)
