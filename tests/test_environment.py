@@ -225,3 +225,23 @@ def test_lookup_is_the_spec_everywhere():
     dirs = np.concatenate([dirs, seams])
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     np.testing.assert_allclose(env.eval(dirs), _spec_lookup(img, radiance, dirs), rtol=1e-9, atol=1e-12)
+
+
+def test_environment_map_memory_estimate(tmp_path, monkeypatch):
+    """The map's memory (≈ 160 bytes per texel) is checked before it is read: a 64×32 map needs 320 KiB,
+    refused under a 256 KiB limit with the file named; a 64×8 map (80 KiB) loads."""
+    from brdflab.errors import SceneError
+    from brdflab.imageio import write_exr
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import CAMERA, write_scene
+
+    monkeypatch.setenv("BRDFLAB_MEMORY_LIMIT_GB", str(256 / 2**20))
+    for w, h, ok in ((64, 32, False), (64, 8, True)):
+        write_exr(tmp_path / f"sky{h}.exr", np.ones((h, w, 3), np.float32))
+        path = write_scene(tmp_path, f'<integrator type="direct_ems"/>{CAMERA}<emitter type="environment">'
+                           f'<string name="filename" value="sky{h}.exr"/></emitter>', name=f"s{h}.xml")
+        if ok:
+            assert load_scene(path).environment is not None
+        else:
+            with pytest.raises(SceneError, match=r"s32\.xml:\d+.*64×32 environment map"):
+                load_scene(path)
