@@ -95,6 +95,13 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/integrator/direct_whitted.py:36:55:Gt->GtE": "tracing shadow rays also for zero contributions "
     "changes only the work: each such contribution is 0 · V = 0",
     "brdflab/bsdf/roughsubstrate.py:147:65:const 2->3": "the Beckmann warp reads only the first two columns of u",
+    "brdflab/emitter/environment.py:185:53:const 2->3": "the sphere warp reads only the first two columns of u",
+    "brdflab/bsdf/family.py:40:11:Gt->GtE": "a family of one member has no slot that varies, so building its "
+    "tables finds nothing to tabulate",
+    "brdflab/integrator/common.py:112:101:const 1->2": "the miss entry −1 → −2: every reader tests ≥ 0 (by_group "
+    "skips negative ids), so any negative value means 'no emitter'",
+    "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
+    "groups in the same order with the same ascending indices as the per-group comparisons",
 }
 
 

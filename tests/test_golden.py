@@ -500,6 +500,13 @@ def test_scene_file_defaults(tmp_path):
     wi, wo = np.array([direction(30.0)]), np.array([direction(40.0, 180.0)])
     for b in s.bsdfs:
         assert b.eval(wi, wo).shape == (1, 3)
+    # The Python constructors have the same defaults as the scene files.
+    api = (Diffuse(), RoughConductor(), RoughSubstrate())
+    np.testing.assert_array_equal(api[0].albedo.value, np.full(3, 0.5))
+    np.testing.assert_array_equal(api[1].R0.value, np.full(3, 0.5))
+    np.testing.assert_array_equal(api[2].kd.value, np.full(3, 0.5))
+    assert [api[1].alpha_value, api[2].alpha_value] == pytest.approx([0.1, 0.1], rel=1e-14)
+    assert (api[2].int_ior, api[2].ext_ior) == (ETA_INT, ETA_EXT)
 
 
 def test_sample_weight_guards():

@@ -368,3 +368,23 @@ def test_light_facing_by_vertex_normals(tmp_path, obj):
         L = s.integrator.li(s, np.tile(x + [0.0, 0.01, 0.0], (n, 1)), np.tile(-UP, (n, 1)), np.full(n, 1.0), rng)
         zs.append(float(np.max(np.abs(L.mean(axis=0) - ref) / (L.std(axis=0) / np.sqrt(n)))))
     assert 2 * stats.norm.sf(max(zs)) > 1 - (1 - 0.01) ** (1 / 9), zs
+
+
+@pytest.mark.parametrize("integ", ["direct_ems", "direct_mats", "direct_mis", "direct_whitted"])
+def test_batches_of_zero_and_one_ray(integ):
+    """Every integrator takes a batch of no rays; a batch of one ray gives that ray's value in a larger
+    batch with the same stream (the uniforms are drawn per camera ray, so the first ray's are the same;
+    ``direct_whitted`` draws one block per emitter, so it gets a scene with one light)."""
+    s = load_scene(LIGHTS / ("sphere_light_mis.xml" if integ == "direct_whitted" else "mixed_lights_mis.xml"), integ)
+    empty = s.integrator.li(s, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.random.default_rng(1))
+    assert empty.shape == (0, 3)
+    rng = np.random.default_rng(2)
+    o = np.concatenate([POINTS[:1], rng.uniform([-2, 0, -2], [0, 0, 2], (63, 3))]) + 0.01 * UP
+    d = np.tile(-UP, (64, 1))
+    lit = 0
+    for seed in range(6):
+        many = s.integrator.li(s, o, d, np.full(64, 1.0), np.random.default_rng(seed))
+        one = s.integrator.li(s, o[:1], d[:1], np.full(1, 1.0), np.random.default_rng(seed))
+        np.testing.assert_array_equal(one, many[:1])
+        lit += bool(one.max() > 0)
+    assert lit >= 1
