@@ -100,6 +100,8 @@ EQUIVALENT: dict[str, str] = {
     "tables finds nothing to tabulate",
     "brdflab/integrator/common.py:112:101:const 1->2": "the miss entry −1 → −2: every reader tests ≥ 0 (by_group "
     "skips negative ids), so any negative value means 'no emitter'",
+    "brdflab/emitter/environment.py:177:25:Gt->GtE": "at sin θ = 0 the division gives a non-finite pdf, which "
+    "the isfinite test sets to 0 as before",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }
