@@ -102,6 +102,15 @@ EQUIVALENT: dict[str, str] = {
     "skips negative ids), so any negative value means 'no emitter'",
     "brdflab/emitter/environment.py:177:25:Gt->GtE": "at sin θ = 0 the division gives a non-finite pdf, which "
     "the isfinite test sets to 0 as before",
+    "brdflab/emitter/area.py:104:83:const 1e-12->1.1000000000000002e-12": "a 10 % wider tolerance of the planarity "
+    "test: light normals are either equal to the bit or differ by far more",
+    "brdflab/emitter/area.py:95:57:const 0.0->1.0": "a flat light then takes the mirrored-light branch, which "
+    "sets the same normals (the vertex normal, renormalised) and marks it flat",
+    "brdflab/bsdf/roughsubstrate.py:56:16:True->False": "the material-family fast path is off: it is bit-identical "
+    "to the per-material path (tests/test_plugins.py, test_fast_vs_generic.py)",
+    "brdflab/emitter/environment.py:88:74:const 4.0->4.4": "a constant factor of the sampling weights, which the "
+    "2-D distribution normalises away",
+    "brdflab/emitter/environment.py:187:43:const 2->3": "the 2-D distribution reads only the first two columns of u",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }

@@ -216,3 +216,19 @@ def test_sort_by_code_matches_a_plain_grouping(n_codes):
     assert [c for c, _ in runs] == [c for c, _ in want]
     for (_, sl), (_, idx) in zip(runs, want, strict=True):
         np.testing.assert_array_equal(order[sl], idx)
+
+
+@pytest.mark.parametrize("n_groups", [1, 3, 8, 9, 12, 100])
+def test_by_group_matches_a_plain_grouping(n_groups):
+    """The per-material/per-emitter loop's grouping (one group: the whole batch; up to 8: one comparison
+    each; more: a stable argsort split) yields each non-negative id once, ascending, with its indices."""
+    rng = np.random.default_rng(n_groups)
+    ids = rng.integers(-1, n_groups, 700)
+    got = [(g, np.arange(len(ids))[sel]) for g, sel in common.by_group(ids)]
+    want = [(g, np.flatnonzero(ids == g)) for g in range(n_groups) if np.any(ids == g)]
+    assert [g for g, _ in got] == [g for g, _ in want]
+    for (_, a), (_, b) in zip(got, want, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert list(common.by_group(np.zeros(0, np.int64))) == []
+    (g, sel), = common.by_group(np.full(5, 3))
+    assert g == 3 and sel == slice(None)

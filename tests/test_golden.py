@@ -641,3 +641,23 @@ def test_point_light_sample_by_hand():
     np.testing.assert_allclose(r.wi[[0, 1, 3]], d[[0, 1, 3]] / np.sqrt(r2[[0, 1, 3], None]), rtol=1e-15)
     np.testing.assert_allclose(r.dist, np.sqrt(r2), rtol=1e-15)
     np.testing.assert_array_equal(r.pdf, 1.0)
+
+
+def test_power_of_scaled_and_image_lights_by_hand(tmp_path):
+    """Φ of an area light with ``scale`` (π·lum(scale·L_e)·A) and of an image environment (4π·lum of the
+    mean texel × radiance/255, spec §9.3's scaling) — the selection weights of the power heuristic."""
+    from brdflab.emitter.environment import EnvironmentEmitter
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import CAMERA, QUAD_OBJ, write_scene
+
+    lum = np.array([0.212671, 0.715160, 0.072169])
+    body = (f'<integrator type="direct_ems"/>{CAMERA}<mesh type="obj"><string name="filename" value="q.obj"/>'
+            '<emitter type="area"><color name="radiance" value="1,2,3"/><float name="scale" value="4"/></emitter>'
+            '</mesh>')
+    (light,) = load_scene(write_scene(tmp_path, body, {"q.obj": QUAD_OBJ})).emitters
+    np.testing.assert_allclose(light.power(), np.pi * 4 * (lum @ [1.0, 2.0, 3.0]) * 4.0, rtol=1e-14)  # A = 2 × 2
+    rng = np.random.default_rng(8)
+    img = (rng.random((4, 6, 3)) * 255).astype(np.float32)
+    env = EnvironmentEmitter(img, np.array([2.0, 1.0, 0.5]))
+    want = 4 * np.pi * float(lum @ (img.astype(np.float64).mean(axis=(0, 1)) * [2.0, 1.0, 0.5] / 255))
+    np.testing.assert_allclose(env.power(), want, rtol=1e-12)
