@@ -39,11 +39,16 @@ def bsdf_rays(scene, sp, u: np.ndarray):
     """
     wo, weight, pdf = sample_bsdfs(scene, sp, u)
     live = np.flatnonzero(any_positive(weight))
-    d = sp.world(take_rows(wo, live), live)
+    if len(live) == len(wo):
+        # Every sample carries weight (e.g. diffuse surfaces only): the gathers would copy every row.
+        d, p, ng = sp.world(wo), sp.p, sp.ng
+    else:
+        d = sp.world(take_rows(wo, live), live)
+        p, ng, weight, pdf = take_rows(sp.p, live), take_rows(sp.ng, live), take_rows(weight, live), np.take(pdf, live)
     d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
-    o = scene.geometry.offset_origin(take_rows(sp.p, live), take_rows(sp.ng, live), d, f32=True)
+    o = scene.geometry.offset_origin(p, ng, d, f32=True)
     Le, pdf_light = emission_along(scene, o, d)
-    return live, take_rows(weight, live), np.take(pdf, live), Le, pdf_light
+    return live, weight, pdf, Le, pdf_light
 
 
 class DirectMATS(Integrator):
