@@ -7,7 +7,7 @@ Usage (Numba is not a brdflab dependency; install it into a separate venv with b
     python -m venv /tmp/nb && /tmp/nb/bin/pip install -e . numba
     /tmp/nb/bin/python benchmarks/numba_prototype.py [SCENE.xml] [--rounds 200]
 
-One 16 k-sample unit of ``direct_ems`` (the bench unit size) is rendered with brdflab's functions; its
+One 16 k-sample unit (the bench unit size) is rendered with brdflab's functions; its
 intermediate arrays are the inputs of four kernels, each checked against the NumPy result
 (``allclose``, rtol 1e-12: the kernels sum in another order) and timed alternately with it by thread CPU
 time (robust on a shared machine), median of ``--rounds``:
@@ -19,8 +19,9 @@ time (robust on a shared machine), median of ``--rounds``:
 * ``light+shadow``: the area-light sample (:class:`AreaLightSet`, or one :class:`AreaEmitter`: triangles
   or its parallelogram; the discrete choice of the triangle stays in NumPy), ω in the local frame, cos θ
   and the float32 shadow rays (origin offset, direction, t_max) → one loop.
-* ``bsdf``: ``RoughConductor.eval`` (D, G1, Schlick) of the scene's first rough conductor at every shading
-  point → one loop (skipped when the scene has none).
+* ``bsdf``: ``eval`` of the scene's first rough conductor (D, G1, Schlick) or rough substrate (with the
+  dielectric Fresnel and the Ashikhmin–Shirley diffuse term) at every shading point → one loop; the
+  projection counts it with the share of camera hits on that material.
 
 Finally the whole unit's CPU time is measured and the speed-up of the unit projected by Amdahl's law
 (the unit with these four stages replaced; Embree and the rest unchanged).
@@ -119,10 +120,12 @@ def shading_kernel(prim, bu, bv, smooth, tri_pos, fn, tri_nrm, d, p, ng, ns, sig
 
 
 @nb.jit(**JIT)
-def light_shadow_kernel(k, u1, u2, pos, face_n, rad, pdf_scale, p, ng, ns, sign, a, eps, quad,
+def light_shadow_kernel(k, u1, u2, pos, face_n, nrm, rad, pdf_scale, p, ng, ns, sign, a, eps, quad,
                         wo, cos_o, radiance, pdf, o32, d32, tmax):
-    """Triangle point (folding warp), direction and distance, pdf, radiance; ω in the local frame; shadow
-    ray (origin offset along ±n_g, float32) stopping before the light point."""
+    """Triangle point (folding warp), direction and distance, light normal (interpolated vertex normals
+    when ``nrm`` has 9 columns), pdf, radiance; ω in the local frame; shadow ray (origin offset along ±n_g,
+    float32) stopping before the light point. Tables are one row per triangle: a random triangle's 9 values
+    share a cache line or two (brdflab's column-per-triangle layout suits NumPy's gathers, not this)."""
     for i in range(len(k)):
         t = k[i]
         x0, x1 = u1[i], u2[i]
@@ -134,19 +137,28 @@ def light_shadow_kernel(k, u1, u2, pos, face_n, rad, pdf_scale, p, ng, ns, sign,
         else:
             b0, bu = x0, x1
             bv = 1.0 - b0 - bu
-        dx = pos[0, t] + bu * pos[3, t] + bv * pos[6, t] - p[i, 0]
-        dy = pos[1, t] + bu * pos[4, t] + bv * pos[7, t] - p[i, 1]
-        dz = pos[2, t] + bu * pos[5, t] + bv * pos[8, t] - p[i, 2]
+        dx = pos[t, 0] + bu * pos[t, 3] + bv * pos[t, 6] - p[i, 0]
+        dy = pos[t, 1] + bu * pos[t, 4] + bv * pos[t, 7] - p[i, 1]
+        dz = pos[t, 2] + bu * pos[t, 5] + bv * pos[t, 8] - p[i, 2]
         d2 = dx * dx + dy * dy + dz * dz
         dist = np.sqrt(d2)
         inv = 1.0 / max(dist, 2.2250738585072014e-308)
         wx, wy, wz = dx * inv, dy * inv, dz * inv
-        cos_l = -(face_n[t, 0] * wx + face_n[t, 1] * wy + face_n[t, 2] * wz)
+        if nrm.shape[1] == 9:
+            lx = nrm[t, 0] + bu * nrm[t, 3] + bv * nrm[t, 6]
+            ly = nrm[t, 1] + bu * nrm[t, 4] + bv * nrm[t, 7]
+            lz = nrm[t, 2] + bu * nrm[t, 5] + bv * nrm[t, 8]
+            ln = np.sqrt(lx * lx + ly * ly + lz * lz)
+            if not ln > 0:
+                ln = 1.0
+            cos_l = -(lx / ln * wx + ly / ln * wy + lz / ln * wz)
+        else:
+            cos_l = -(face_n[t, 0] * wx + face_n[t, 1] * wy + face_n[t, 2] * wz)
         pd = d2 * pdf_scale[t] / cos_l if cos_l != 0 else np.inf
         ok = pd > 0 and pd < np.inf
         pdf[i] = pd if ok else 0.0
         for j in range(3):
-            radiance[i, j] = rad[j, t] if ok else 0.0
+            radiance[i, j] = rad[t, j] if ok else 0.0
         nx, ny, nz = ns[i, 0], ns[i, 1], ns[i, 2]
         s, aa = sign[i], a[i]
         w = nx * wx + ny * wy
@@ -202,6 +214,53 @@ def conductor_kernel(wi, wo, alpha, r0, f):
             f[i, j] = (r0[j] + m5 * (1.0 - r0[j])) * s
 
 
+@nb.jit(**JIT)
+def substrate_kernel(wi, wo, alpha, kd, scale, eta_e, eta_i, f):
+    """Ashikhmin–Shirley diffuse under a Beckmann dielectric coat (the ``lobe="both"`` eval)."""
+    a2 = alpha * alpha
+    for i in range(len(wi)):
+        ix, iy, iz = wi[i, 0], wi[i, 1], wi[i, 2]
+        ox, oy, oz = wo[i, 0], wo[i, 1], wo[i, 2]
+        f[i, 0] = f[i, 1] = f[i, 2] = 0.0
+        if iz <= 0 or oz <= 0:
+            continue
+        mi, mo = 1.0 - 0.5 * iz, 1.0 - 0.5 * oz
+        sd = scale * (1.0 - mi * mi * mi * mi * mi) * (1.0 - mo * mo * mo * mo * mo)
+        hx, hy, hz = ix + ox, iy + oy, iz + oz
+        hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+        spec = 0.0
+        if hn > 1e-12:
+            hx, hy, hz = hx / hn, hy / hn, hz / hn
+            hi = hx * ix + hy * iy + hz * iz
+            if hz > 0:
+                c2 = hz * hz
+                d = np.exp(-max(1.0 - c2, 0.0) / c2 / a2) / (np.pi * a2 * c2 * c2)
+                ci = min(max(hi, 0.0), 1.0)
+                s2 = (eta_e / eta_i) ** 2 * max(0.0, 1.0 - ci * ci)
+                if s2 >= 1.0:
+                    fr = 1.0
+                else:
+                    ct = np.sqrt(max(0.0, 1.0 - s2))
+                    rs = (eta_e * ci - eta_i * ct) / (eta_e * ci + eta_i * ct)
+                    rp = (eta_i * ci - eta_e * ct) / (eta_i * ci + eta_e * ct)
+                    fr = 0.5 * (rs * rs + rp * rp)
+                    fr = min(max(fr, 0.0), 1.0) if np.isfinite(fr) else 1.0
+                g = 1.0
+                for cz, vh in ((iz, hi), (oz, hx * ox + hy * oy + hz * oz)):
+                    if vh / cz <= 0:
+                        g = 0.0
+                        break
+                    tan_v = np.sqrt(max(1.0 - cz * cz, 0.0)) / abs(cz)
+                    b = 1.0 / (alpha * tan_v) if tan_v > 0 else np.inf
+                    if b < 1.6:
+                        g *= (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
+                spec = d * fr * g / (4.0 * iz * oz)
+                if not np.isfinite(spec):
+                    spec = 0.0
+        for j in range(3):
+            f[i, j] = kd[j] * sd + spec
+
+
 def cpu_ab(fa, fb, rounds: int) -> tuple[float, float]:
     """Median thread CPU milliseconds of ``fa`` and ``fb``, run alternately."""
     ta, tb = [], []
@@ -222,7 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=200)
     a = ap.parse_args(argv)
     tune_allocator()
-    scene = load_scene(a.scene, "direct_ems")
+    scene = load_scene(a.scene)
     g, cam = scene.geometry, scene.camera
     # One bench unit: a 16 × 16-pixel tile at 64 spp in the middle of the image.
     w = h = 16
@@ -279,10 +338,11 @@ def main(argv: list[str] | None = None) -> int:
     u = point_uniforms(rng, n, sp, light_dims(scene))
     quad = None
     light_ok = True
+    nrm = np.zeros((1, 1))
     if fused is not None:
         kk, u12 = fused.chooser.sample(u[:, 0]), u[:, 1:3]
         pos, face_n, rad, pdf_scale = fused._pos, fused._face_n, fused._radiance, fused._pdf_scale
-        light_ok = fused._nrm is None
+        nrm = fused._nrm if fused._nrm is not None else np.zeros((1, 1))
     elif type(em).__name__ == "AreaEmitter" and em.radiance.constant and em._nrm is None:
         value = em.radiance.value * em.scale
         kk, u12, pos = em.chooser.sample(u[:, 2]), u[:, 0:2], em._pos
@@ -314,11 +374,14 @@ def main(argv: list[str] | None = None) -> int:
         sign, fa = sp.frames.sign, sp.frames.a
         u1, u2 = np.ascontiguousarray(u12[:, 0]), np.ascontiguousarray(u12[:, 1])
         fn_c = np.ascontiguousarray(face_n)
-        kk = np.ascontiguousarray(kk, np.int64)
+        choose = (lambda: fused.chooser.sample(u[:, 0])) if fused is not None else \
+            (lambda: em.chooser.sample(u[:, 2])) if quad is None else (lambda: kk)
 
-        def nb_light():
-            light_shadow_kernel(kk, u1, u2, pos, fn_c, rad, pdf_scale, p_c, ng_c, ns_c, sign, fa, g.eps,
-                                quad is not None, *lo)
+        pos_r, nrm_r, rad_r = np.ascontiguousarray(pos.T), np.ascontiguousarray(nrm.T), np.ascontiguousarray(rad.T)
+
+        def nb_light():  # the discrete choice stays in NumPy (as timed on the NumPy side)
+            light_shadow_kernel(choose(), u1, u2, pos_r, fn_c, nrm_r, rad_r, pdf_scale, p_c, ng_c, ns_c, sign, fa,
+                                g.eps, quad is not None, *lo)
 
         ls, wo_np, cos_np, o32_np, d32_np, tmax_np = np_light()
         nb_light()
@@ -331,35 +394,45 @@ def main(argv: list[str] | None = None) -> int:
         agree.append("light+shadow skipped (emitter kind not in the prototype)")
 
     # -- BSDF -----------------------------------------------------------------------------------
-    cond = [b for b in scene.bsdfs if type(b).__name__ == "RoughConductor" and b.R0.constant and b.alpha.constant]
-    if cond and light_ok:
-        inner = cond[0]
+    kinds = {"RoughConductor": conductor_kernel, "RoughSubstrate": substrate_kernel}
+    picked = [b for b in scene.bsdfs if type(b).__name__ in kinds and all(
+        getattr(b, t).constant for t in b.texture_slots) and getattr(b, "lobe", "both") == "both"]
+    if picked and light_ok:
+        inner = picked[0]
+        kind = type(inner).__name__
         wi_s, wo_s = np.ascontiguousarray(sp.wi), np.ascontiguousarray(wo_np)
-        alpha, r0 = float(inner.alpha.luminance()), np.asarray(inner.R0.value, float)
+        alpha = float(inner.alpha.luminance())
         fo = np.empty((m, 3))
+        if kind == "RoughConductor":
+            r0 = np.asarray(inner.R0.value, float)
+
+            def nb_bsdf():
+                conductor_kernel(wi_s, wo_s, alpha, r0, fo)
+        else:
+            kd = np.asarray(inner.kd.value, float)
+
+            def nb_bsdf():
+                substrate_kernel(wi_s, wo_s, alpha, kd, inner.diffuse_scale, inner.ext_ior, inner.int_ior, fo)
 
         def np_bsdf():
             return inner.eval(sp.wi, wo_np)
 
-        def nb_bsdf():
-            conductor_kernel(wi_s, wo_s, alpha, r0, fo)
-
         ref_f = np_bsdf()
         nb_bsdf()
         agree.append(f"bsdf {'agrees' if np.allclose(fo, ref_f, rtol=1e-10, atol=1e-14) else 'DIFFERS'} "
-                     "(the scene's first roughconductor at every shading point, light-sample directions)")
-        # Share of camera hits on rough conductors over the whole image (one tile may have none).
+                     f"(the scene's first {kind} at every shading point, light-sample directions)")
+        # Share of camera hits on that kind over the whole image (one tile may have none).
         fams = scene_tables(scene).bsdf_families.families
         ox, oy = rng.random(n) * cam.width, rng.random(n) * cam.height
         c_all = np.take(tab.tri_code, g.trace(*cam.generate_rays(ox, oy)).prim)
-        share = sum(int(np.sum(c_all >> 1 == fi)) for fi, fam in enumerate(fams) if c_all.size
-                    and type(fam.members[0]).__name__ == "RoughConductor") / n
+        share = sum(int(np.sum(c_all >> 1 == fi)) for fi, fam in enumerate(fams)
+                    if type(fam.members[0]).__name__ == kind) / n
         t_np, t_nb = cpu_ab(np_bsdf, nb_bsdf, a.rounds)
-        agree.append(f"  ({100 * share:.0f} % of the camera hits over the image are rough conductors: the "
-                     "projection counts that share of the BSDF times)")
-        rows_out.append((f"bsdf (roughconductor, ×{share:.2f})", share * t_np, share * t_nb))
+        agree.append(f"  ({100 * share:.0f} % of the camera hits over the image are {kind}: the projection counts "
+                     "that share of the BSDF times)")
+        rows_out.append((f"bsdf ({kind}, ×{share:.2f})", share * t_np, share * t_nb))
     else:
-        agree.append("bsdf skipped (no constant roughconductor)")
+        agree.append("bsdf skipped (no constant roughconductor or roughsubstrate)")
 
     # -- splat ----------------------------------------------------------------------------------
     L = np.asfortranarray(np.random.default_rng(3).random((n, 3)))
@@ -398,8 +471,9 @@ def main(argv: list[str] | None = None) -> int:
     for name, t_np, t_nb in rows_out:
         print(f"{name:30s} {t_np:8.3f} {t_nb:8.3f} {t_np / max(t_nb, 1e-9):8.1f}×")
         saved += t_np - t_nb
-    print(f"whole unit (NumPy, direct_ems): {unit_ms:.2f} ms; these stages {sum(r[1] for r in rows_out):.2f} ms "
-          f"({100 * sum(r[1] for r in rows_out) / unit_ms:.0f} %)")
+    staged = sum(r[1] for r in rows_out)
+    print(f"whole unit (NumPy, {scene.integrator_type}): {unit_ms:.2f} ms; these stages {staged:.2f} ms "
+          f"({100 * staged / unit_ms:.0f} %)")
     print(f"projected unit with the kernels: {unit_ms - saved:.2f} ms → {unit_ms / (unit_ms - saved):.2f}× "
           "(Amdahl; Embree and the remaining NumPy unchanged)")
     return 0

@@ -2,7 +2,8 @@
 
 Usage (with brdflab's own environment active)::
 
-    python benchmarks/side_by_side.py [--spp 64] [--rounds 3] [--variants scalar_rgb,llvm_ad_rgb] [cases ...]
+    python benchmarks/side_by_side.py [--spp 64] [--rounds 3] [--variants scalar_rgb,llvm_ad_rgb] [--no-whole]
+                                      [cases ...]
 
 * Mitsuba is installed from PyPI into its own venv, ``benchmarks/.venv-mitsuba`` (created on first use).
 * ``llvm_ad_rgb`` needs an LLVM shared library (Debian: ``apt-get install libllvm19``); the script looks
@@ -13,7 +14,8 @@ Usage (with brdflab's own environment active)::
   (no scene loading, BVH build or JIT compilation). Both use every core.
 * brdflab is also timed as users run it: a whole ``brdflab render SCENE --spp N`` process (start-up,
   load, BVH, render, EXR + PNG write), reported as samples/s over that wall time (``brdflab_whole``) and
-  compared with Mitsuba's render call alone. The course scenes (``../shared/scenes``, skipped when
+  compared with Mitsuba's render call alone (``--no-whole`` skips it: render-only comparisons in a
+  quarter less time on a loaded machine). The course scenes (``../shared/scenes``, skipped when
   absent) are among the cases.
 * Prints a table of median samples/s and the ratio brdflab / Mitsuba per variant — the headline figure —
   and writes ``benchmarks/results/side_by_side.json`` plus a Markdown table for the README.
@@ -120,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
     ap.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis")
     ap.add_argument("--json", type=Path, default=HERE / "results" / "side_by_side.json")
+    ap.add_argument("--no-whole", action="store_true", help="skip the whole-process brdflab runs")
     a = ap.parse_args(argv)
     ensure_mitsuba()
     variants = [v for v in a.variants.split(",") if v]
@@ -135,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         for integ in CASES[case][1]:
             if integ in a.integrators.split(","):
                 jobs.append((case, integ, *scene_paths(case, integ)))
-    players = ["brdflab", "brdflab_whole"]
+    players = ["brdflab"] if a.no_whole else ["brdflab", "brdflab_whole"]
     runs: dict[tuple[str, str], dict[str, list[dict]]] = {(c, i): {p: [] for p in players} | {v: [] for v in variants}
                                                           for c, i, _, _ in jobs}
     pixels: dict[tuple[str, str], int] = {}
@@ -164,20 +167,21 @@ def main(argv: list[str] | None = None) -> int:
         med = {w: statistics.median(x["samples_per_s"] for x in recs) for w, recs in by.items()}
         row["median_samples_per_s"] = med
         row["ratio"] = {v: med["brdflab"] / med[v] for v in variants}
-        row["whole_ratio"] = {v: med["brdflab_whole"] / med[v] for v in variants}
+        row["whole_ratio"] = {v: med["brdflab_whole"] / med[v] for v in variants} if not a.no_whole else {}
         row["brdflab_embree_share"] = statistics.median(x["embree_share"] for x in by["brdflab"])
         rows.append(row)
-    head = "| case | integrator | brdflab | brdflab whole process | " + \
+    whole = not a.no_whole
+    head = "| case | integrator | brdflab | " + ("brdflab whole process | " if whole else "") + \
         " | ".join(f"Mitsuba {v}" for v in variants) + " | " + " | ".join(f"ratio vs {v}" for v in variants) + \
-        " | " + " | ".join(f"whole process vs {v}" for v in variants) + " |"
+        "".join(f" | whole process vs {v}" for v in variants if whole) + " |"
     print("\n" + head)
-    print("|" + "---|" * (4 + 3 * len(variants)))
+    print("|" + "---|" * (3 + whole + (2 + whole) * len(variants)))
     for row in rows:
         med = row["median_samples_per_s"]
-        cells = [f"{med['brdflab'] / 1e6:.2f} M", f"{med['brdflab_whole'] / 1e6:.2f} M"]
+        cells = [f"{med['brdflab'] / 1e6:.2f} M"] + ([f"{med['brdflab_whole'] / 1e6:.2f} M"] if whole else [])
         cells += [f"{med[v] / 1e6:.2f} M" for v in variants]
         cells += [f"**{row['ratio'][v]:.2f}×**" for v in variants]
-        cells += [f"**{row['whole_ratio'][v]:.2f}×**" for v in variants]
+        cells += [f"**{row['whole_ratio'][v]:.2f}×**" for v in variants if whole]
         print(f"| {row['case']} | {row['integrator']} | " + " | ".join(cells) + " |")
     print(f"\nsamples/s, median of {a.rounds} alternating rounds, {a.spp} spp, {os.cpu_count()} cores, "
           f"{time.strftime('%Y-%m-%d')}")
