@@ -177,6 +177,22 @@ def light_shadow_kernel(k, u1, u2, pos, face_n, nrm, rad, pdf_scale, p, ng, ns, 
 
 
 @nb.jit(**JIT)
+def beckmann_dg(ix, iy, iz, ox, oy, oz, hx, hy, hz, alpha, a2):
+    """Beckmann D(ω_h) and the rational Smith G1(ω_i) G1(ω_o) for a unit half vector with h_z > 0."""
+    c2 = hz * hz
+    d = np.exp(-max(1.0 - c2, 0.0) / c2 / a2) / (np.pi * a2 * c2 * c2)
+    g = 1.0
+    for cz, vh in ((iz, hx * ix + hy * iy + hz * iz), (oz, hx * ox + hy * oy + hz * oz)):
+        if vh / cz <= 0:
+            return d, 0.0
+        tan_v = np.sqrt(max(1.0 - cz * cz, 0.0)) / abs(cz)
+        b = 1.0 / (alpha * tan_v) if tan_v > 0 else np.inf
+        if b < 1.6:
+            g *= (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
+    return d, g
+
+
+@nb.jit(**JIT)
 def conductor_kernel(wi, wo, alpha, r0, f):
     """Beckmann D · Schlick F · rational Smith G1² / (4 cos θ_i cos θ_o)."""
     a2 = alpha * alpha
@@ -191,18 +207,8 @@ def conductor_kernel(wi, wo, alpha, r0, f):
         hx, hy, hz = hx / hn, hy / hn, hz / hn
         if hz <= 0:
             continue
-        c2 = hz * hz
-        d = np.exp(-max(1.0 - c2, 0.0) / c2 / a2) / (np.pi * a2 * c2 * c2)
         hi = hx * ix + hy * iy + hz * iz
-        g = 1.0
-        for cz, vh in ((iz, hi), (oz, hx * ox + hy * oy + hz * oz)):
-            if vh / cz <= 0:
-                g = 0.0
-                break
-            tan_v = np.sqrt(max(1.0 - cz * cz, 0.0)) / abs(cz)
-            b = 1.0 / (alpha * tan_v) if tan_v > 0 else np.inf
-            if b < 1.6:
-                g *= (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
+        d, g = beckmann_dg(ix, iy, iz, ox, oy, oz, hx, hy, hz, alpha, a2)
         s = d * g / (4.0 * iz * oz)
         if not np.isfinite(s):
             continue
@@ -233,8 +239,7 @@ def substrate_kernel(wi, wo, alpha, kd, scale, eta_e, eta_i, f):
             hx, hy, hz = hx / hn, hy / hn, hz / hn
             hi = hx * ix + hy * iy + hz * iz
             if hz > 0:
-                c2 = hz * hz
-                d = np.exp(-max(1.0 - c2, 0.0) / c2 / a2) / (np.pi * a2 * c2 * c2)
+                d, g = beckmann_dg(ix, iy, iz, ox, oy, oz, hx, hy, hz, alpha, a2)
                 ci = min(max(hi, 0.0), 1.0)
                 s2 = (eta_e / eta_i) ** 2 * max(0.0, 1.0 - ci * ci)
                 if s2 >= 1.0:
@@ -245,15 +250,6 @@ def substrate_kernel(wi, wo, alpha, kd, scale, eta_e, eta_i, f):
                     rp = (eta_i * ci - eta_e * ct) / (eta_i * ci + eta_e * ct)
                     fr = 0.5 * (rs * rs + rp * rp)
                     fr = min(max(fr, 0.0), 1.0) if np.isfinite(fr) else 1.0
-                g = 1.0
-                for cz, vh in ((iz, hi), (oz, hx * ox + hy * oy + hz * oz)):
-                    if vh / cz <= 0:
-                        g = 0.0
-                        break
-                    tan_v = np.sqrt(max(1.0 - cz * cz, 0.0)) / abs(cz)
-                    b = 1.0 / (alpha * tan_v) if tan_v > 0 else np.inf
-                    if b < 1.6:
-                        g *= (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
                 spec = d * fr * g / (4.0 * iz * oz)
                 if not np.isfinite(spec):
                     spec = 0.0
