@@ -111,6 +111,8 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/emitter/environment.py:88:74:const 4.0->4.4": "a constant factor of the sampling weights, which the "
     "2-D distribution normalises away",
     "brdflab/emitter/environment.py:187:43:const 2->3": "the 2-D distribution reads only the first two columns of u",
+    "brdflab/bsdf/fresnel.py:25:19:GtE->Gt": "at cos θ_i = 0 exactly, F = 1 from either side (grazing reflection "
+    "or total internal reflection), so which side the point counts as changes nothing",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }
