@@ -113,6 +113,18 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/emitter/environment.py:187:43:const 2->3": "the 2-D distribution reads only the first two columns of u",
     "brdflab/bsdf/fresnel.py:25:19:GtE->Gt": "at cos θ_i = 0 exactly, F = 1 from either side (grazing reflection "
     "or total internal reflection), so which side the point counts as changes nothing",
+    "brdflab/integrator/direct_whitted.py:36:35:Gt->GtE": "a sample of pdf 0 carries radiance 0, which the "
+    "radiance·f > 0 test beside it already drops",
+    "brdflab/bsdf/diffuse.py:43:31:Gt->GtE": "f at cos θ_o = 0 exactly: a set of measure zero, and every use "
+    "multiplies f by cos θ_o = 0",
+    "brdflab/bsdf/roughsubstrate.py:120:35:Gt->GtE": "p_mf at ω_i·ω_h = 0 exactly: a set of measure zero (a sampled "
+    "ω_o there is a grazing reflection whose f is 0)",
+    "brdflab/emitter/environment.py:123:39:const 1.0->1.1": "the y component of a unit direction never exceeds 1",
+    "brdflab/integrator/common.py:297:11:Eq->NotEq": "for several groups the first one's slice cannot cover all m "
+    "points, so the shortcut stays off; for one group the assembling path gives the same arrays",
+    "brdflab/integrator/common.py:382:57:const 4->5": "u has exactly 4 columns here, so u[:, 1:5] is u[:, 1:4]",
+    "brdflab/integrator/common.py:378:7:Or->And": "sample_lights is only called for scenes with emitters, and an "
+    "empty batch runs an empty loop to the same zero arrays",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }

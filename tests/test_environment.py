@@ -245,3 +245,28 @@ def test_environment_map_memory_estimate(tmp_path, monkeypatch):
         else:
             with pytest.raises(SceneError, match=r"s32\.xml:\d+.*64×32 environment map"):
                 load_scene(path)
+
+
+def test_rotate_is_ignored_and_bad_texels_are_zeroed(tmp_path):
+    """§9.3: ``rotate`` is read by no code, so a scene's rotate does not turn the map; negative and
+    non-finite texels are set to 0 with a warning (each kind on its own)."""
+    from brdflab.imageio import write_exr
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import CAMERA, write_scene
+
+    rng = np.random.default_rng(4)
+    img = (rng.random((6, 10, 3)) * 255).astype(np.float32)
+    write_exr(tmp_path / "sky.exr", img)
+    dirs = _dirs(*rng.normal(size=(50, 3)))
+    evals = []
+    for rot in ("", '<float name="rotate" value="90"/>'):
+        path = write_scene(tmp_path, f'<integrator type="direct_ems"/>{CAMERA}<emitter type="environment">'
+                           f'<string name="filename" value="sky.exr"/>{rot}</emitter>')
+        evals.append(load_scene(path).environment.eval(dirs))
+    np.testing.assert_array_equal(evals[0], evals[1])
+    for bad in (-5.0, np.nan, np.inf):
+        b = img.copy()
+        b[2, 3] = bad
+        with pytest.warns(UserWarning, match="negative or non-finite"):
+            env = EnvironmentEmitter(b, np.ones(3))
+        assert env.image[2, 3].tolist() == [0.0, 0.0, 0.0] and np.all(np.isfinite(env.image))

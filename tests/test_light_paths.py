@@ -345,7 +345,21 @@ f 1//1 2//1 3//1 4//1
 """
 
 
-@pytest.mark.parametrize("obj", [CHECKER_LIGHT_OBJ, MIRRORED_LIGHT_OBJ], ids=["winding-down", "vn-down-winding-up"])
+def _tilted_mirrored_light(deg: float = 25.0) -> tuple[str, np.ndarray]:
+    """The quad light turned by ``deg`` about the x axis through (0, 2, 0), winding up, every vn down-ish."""
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    rot = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    quad = np.array([[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]], float) @ rot.T + [0, 2, 0]
+    n = rot @ [0.0, -1.0, 0.0]
+    text = "".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in quad) + f"vn {n[0]:.17g} {n[1]:.17g} {n[2]:.17g}\n"
+    return text + "f 1//1 2//1 3//1 4//1\n", quad
+
+
+TILTED_LIGHT_OBJ, TILTED_QUAD = _tilted_mirrored_light()
+
+
+@pytest.mark.parametrize("obj", [CHECKER_LIGHT_OBJ, MIRRORED_LIGHT_OBJ, TILTED_LIGHT_OBJ],
+                         ids=["winding-down", "vn-down-winding-up", "tilted-vn-down-winding-up"])
 def test_light_facing_by_vertex_normals(tmp_path, obj):
     """A quad light emits toward its shading normal (spec §9.1): with the winding normal pointing down, or
     with the winding up and every vertex normal down (a light mirrored by its toWorld, as in the course's
@@ -358,8 +372,8 @@ def test_light_facing_by_vertex_normals(tmp_path, obj):
             '<color name="radiance" value="5,4,3"/></emitter></mesh>')
     path = write_scene(tmp_path, body, {"floor.obj": (MESHES / "floor_left.obj").read_text(), "light.obj": obj})
     x = np.array([-0.5, 0.0, 0.3])
-    ref = RHO / np.pi * np.array([5.0, 4.0, 3.0]) * lambert(x, UP, np.array([[-1, 2, -1], [1, 2, -1], [1, 2, 1],
-                                                                              [-1, 2, 1]], float))
+    quad = TILTED_QUAD if obj == TILTED_LIGHT_OBJ else np.array([[-1, 2, -1], [1, 2, -1], [1, 2, 1], [-1, 2, 1]], float)
+    ref = RHO / np.pi * np.array([5.0, 4.0, 3.0]) * lambert(x, UP, quad)
     n = 20_000
     zs = []
     for integ in ("direct_ems", "direct_mats", "direct_mis"):
