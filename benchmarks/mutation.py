@@ -58,6 +58,10 @@ TESTS = [
     "tests/test_environment.py",
     "tests/test_substrate_tir.py",
     "tests/test_light_paths.py::test_estimators_agree",
+    "tests/test_light_paths.py::test_textured_area_light_is_the_closed_form",
+    "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
+    "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance",
+    "tests/test_light_paths.py::test_batches_of_zero_and_one_ray",
     # The chi-square battery of every built-in sampler and the consistency checks (sampled ω_o follow
     # the pdf; weight = f·cos/pdf): last, since they cost the most.
     "tests/test_validate.py::test_chi2_battery_all_samplers",
