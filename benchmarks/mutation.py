@@ -62,6 +62,7 @@ TESTS = [
     "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
     "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance",
     "tests/test_light_paths.py::test_batches_of_zero_and_one_ray",
+    "tests/test_light_paths.py::test_mis_parts_add_up_to_the_estimate",
     # The chi-square battery of every built-in sampler and the consistency checks (sampled ω_o follow
     # the pdf; weight = f·cos/pdf): last, since they cost the most.
     "tests/test_validate.py::test_chi2_battery_all_samplers",
@@ -129,6 +130,16 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/integrator/common.py:382:57:const 4->5": "u has exactly 4 columns here, so u[:, 1:5] is u[:, 1:4]",
     "brdflab/integrator/common.py:378:7:Or->And": "sample_lights is only called for scenes with emitters, and an "
     "empty batch runs an empty loop to the same zero arrays",
+    "brdflab/integrator/common.py:228:31:Gt->GtE": "np.unique and the bincount scan give the same sorted groups; "
+    "the threshold only picks the cheaper one",
+    "brdflab/integrator/common.py:142:44:True->False": "codes and sizes always have the same length, so zip's "
+    "strictness never matters",
+    "brdflab/emitter/area.py:101:23:True->False": "the light then keeps its (equal) vertex normals and "
+    "interpolates them per sample: the same normals, more work",
+    "brdflab/emitter/area.py:99:27:const 0->1": "as above: unit vertex normals skip the branch and are "
+    "interpolated per sample to the same values",
+    "brdflab/integrator/direct_mis.py:87:31:const 3->4": "a fourth column of zeros that accumulate() and "
+    "set_rows() never read",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }

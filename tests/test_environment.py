@@ -270,3 +270,18 @@ def test_rotate_is_ignored_and_bad_texels_are_zeroed(tmp_path):
         with pytest.warns(UserWarning, match="negative or non-finite"):
             env = EnvironmentEmitter(b, np.ones(3))
         assert env.image[2, 3].tolist() == [0.0, 0.0, 0.0] and np.all(np.isfinite(env.image))
+
+
+def test_sampling_density_follows_the_bilinear_luminance():
+    """Importance sampling ∝ luminance (spec §9.3 leaves the choice open; brdflab's is documented): at the
+    centre of every texel cell the pdf is proportional to the luminance of the bilinear lookup there (the
+    mean of the cell's four corner texels, wrapping like the lookup), so a wrong neighbour shows."""
+    rng = np.random.default_rng(12)
+    h, w = 6, 8
+    img = (rng.random((h, w, 3)) * 255 + 1).astype(np.float32)
+    env = EnvironmentEmitter(img, np.array([2.0, 2.0, 2.0]))  # the weights are the map's own luminance
+    x, y = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    d, _ = env._from_xy(x.ravel(), y.ravel())
+    lum = env.eval(d) @ np.array([0.212671, 0.715160, 0.072169])
+    ratio = env.pdf(d) / lum
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)

@@ -402,3 +402,23 @@ def test_batches_of_zero_and_one_ray(integ):
         np.testing.assert_array_equal(one, many[:1])
         lit += bool(one.max() > 0)
     assert lit >= 1
+
+
+def test_mis_parts_add_up_to_the_estimate():
+    """direct_mis's weight-image parts (``parts = "emitter"`` / ``"bsdf"``) use the same random numbers, so with
+    one seed they add up to the estimate minus the camera-visible emission (a shading point's light term
+    plus its BSDF term)."""
+    from brdflab.integrator.direct_mis import DirectMIS
+
+    s = load_scene(LIGHTS / "mixed_lights_mis.xml", "direct_mis")
+    rng = np.random.default_rng(9)
+    n = 2000
+    o = rng.uniform([-2, 0, -2], [2, 0, 2], (n, 3)) + 0.01 * UP
+    d = np.tile(-UP, (n, 1))
+    out = {}
+    for parts in ("both", "emitter", "bsdf"):
+        integ = DirectMIS()
+        integ.parts = parts
+        out[parts] = integ.li(s, o, d, np.full(n, 1.0), np.random.default_rng(21))
+    assert out["emitter"].max() > 0 and out["bsdf"].max() > 0
+    np.testing.assert_allclose(out["emitter"] + out["bsdf"], out["both"], rtol=1e-12, atol=1e-15)
