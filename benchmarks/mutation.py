@@ -140,6 +140,9 @@ EQUIVALENT: dict[str, str] = {
     "interpolated per sample to the same values",
     "brdflab/integrator/direct_mis.py:87:31:const 3->4": "a fourth column of zeros that accumulate() and "
     "set_rows() never read",
+    "brdflab/integrator/common.py:228:31:Sub->Add": "as above: it only picks np.unique or the bincount scan",
+    "brdflab/bsdf/diffuse.py:43:14:Gt->GtE": "f at cos θ_i = 0 exactly: measure zero, and such camera hits are "
+    "grazing points whose every use multiplies by a cosine or a pdf of 0",
     "brdflab/integrator/common.py:229:7:LtE->Lt": "with exactly 8 groups the stable argsort path yields the same "
     "groups in the same order with the same ascending indices as the per-group comparisons",
 }
