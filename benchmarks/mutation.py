@@ -272,15 +272,29 @@ def scoped_files() -> list[Path]:
     return [f for f in files if f.name != "__init__.py" or f.stat().st_size > 200]
 
 
+def copy_tree(dst: Path) -> None:
+    """Copy the parts of the repository that the tests and the command line need into ``dst``."""
+    for part in ("brdflab", "tests", "scenes", "references", "docs", "cli", "examples", "pyproject.toml"):
+        src = ROOT / part
+        if src.is_dir():
+            shutil.copytree(src, dst / part, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        elif src.exists():
+            shutil.copy2(src, dst / part)
+
+
+def copy_env(workdir: Path) -> dict[str, str]:
+    """Environment of a subprocess that imports brdflab from the copy in ``workdir`` first."""
+    return {**os.environ, "PYTHONPATH": str(workdir), "PYTHONDONTWRITEBYTECODE": "1"}
+
+
 def run_tests(workdir: Path, timeout: float) -> tuple[str, str, float]:
     """('killed' | 'survived' | 'timeout', first failing test, seconds) of the selection in ``workdir``."""
     t0 = time.monotonic()
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-W", "ignore", *TESTS]
     for d in DESELECT:
         cmd += ["--deselect", d]
-    env = {**os.environ, "PYTHONPATH": str(workdir), "PYTHONDONTWRITEBYTECODE": "1"}
     try:
-        r = subprocess.run(cmd, cwd=workdir, env=env, capture_output=True, text=True, timeout=timeout)
+        r = subprocess.run(cmd, cwd=workdir, env=copy_env(workdir), capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return "timeout", "", time.monotonic() - t0
     failed = next((line.split()[1] for line in r.stdout.splitlines() if line.startswith(("FAILED", "ERROR"))), "")
@@ -319,12 +333,7 @@ def main(argv: list[str] | None = None) -> int:
     results = []
     t_start = time.monotonic()
     try:
-        for part in ("brdflab", "tests", "scenes", "references", "docs", "cli", "pyproject.toml"):
-            src = ROOT / part
-            if src.is_dir():
-                shutil.copytree(src, tmp / part, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-            elif src.exists():
-                shutil.copy2(src, tmp / part)
+        copy_tree(tmp)
         # The sources as copied: the working tree may change while the run goes on (a rebase, an edit).
         originals = {m.path: (tmp / m.path).read_text() for m in mutants}
         for m in mutants:

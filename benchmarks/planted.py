@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -39,7 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from mutation import TESTS  # noqa: E402
+from mutation import TESTS, copy_env, copy_tree  # noqa: E402
 
 BROAD = ["tests/test_validate.py", "tests/test_validate_light.py", "tests/test_integrators.py",
          "tests/test_light_paths.py", "tests/test_render.py", "tests/test_references.py",
@@ -164,21 +163,10 @@ BUGS = [
 ]
 
 
-def copy_tree(dst: Path) -> None:
-    """The parts of the repository the tests and the command line need."""
-    for part in ("brdflab", "tests", "scenes", "references", "docs", "cli", "examples", "pyproject.toml"):
-        src = ROOT / part
-        if src.is_dir():
-            shutil.copytree(src, dst / part, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        elif src.exists():
-            shutil.copy2(src, dst / part)
-
-
 def run(cmd: list[str], workdir: Path, timeout: float) -> tuple[bool, str]:
     """(passed, first failure line) of ``cmd`` run in ``workdir`` with the copy first on the path."""
-    env = {**os.environ, "PYTHONPATH": str(workdir), "PYTHONDONTWRITEBYTECODE": "1"}
     try:
-        r = subprocess.run(cmd, cwd=workdir, env=env, capture_output=True, text=True, timeout=timeout)
+        r = subprocess.run(cmd, cwd=workdir, env=copy_env(workdir), capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return False, "timeout"
     out = r.stdout + r.stderr
