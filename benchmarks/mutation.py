@@ -47,6 +47,7 @@ SCOPE = ["brdflab/bsdf", "brdflab/emitter", "brdflab/integrator", "brdflab/math/
 #: The fast test selection, run in this order with -x (the cheapest, most discriminating first).
 TESTS = [
     "tests/test_golden.py",
+    "tests/test_hostile.py::test_area_radiance_times_scale_bound_is_inclusive",
     "tests/test_render.py::test_irradiance_under_area_light",
     "tests/test_render.py::test_point_light_closed_form",
     "tests/test_render.py::test_hits_misses_and_occlusion",

@@ -121,6 +121,19 @@ def test_no_raw_numpy_warning_from_a_render(tmp_path):
         render(load_scene(scene), spp=1, workers=1)
 
 
+
+@pytest.mark.parametrize("scale, ok", [("1", True), ("1.000001", False)])
+def test_area_radiance_times_scale_bound_is_inclusive(tmp_path, scale, ok):
+    # 'scale' × 'radiance' may reach MAX_COMPONENT (1e30, "at most") but not exceed it.
+    light = ('<emitter type="area"><color name="radiance" value="1e30,1,1"/>'
+             f'<float name="scale" value="{scale}"/></emitter>')
+    scene = _scene(tmp_path, light)
+    if ok:
+        assert load_scene(scene).emitters
+    else:
+        with pytest.raises(BrdflabError, match=r"scene.xml:\d+: .*overflows the float32"):
+            load_scene(scene)
+
 # -- resources and schedules ------------------------------------------------------------------------------------
 def test_schedules_are_lazy():
     first = list(itertools.islice(iter_passes(2**63 - 1, max_pass=64, progressive=False), 3))
