@@ -121,7 +121,6 @@ def test_no_raw_numpy_warning_from_a_render(tmp_path):
         render(load_scene(scene), spp=1, workers=1)
 
 
-
 @pytest.mark.parametrize("scale, ok", [("1", True), ("1.000001", False)])
 def test_area_radiance_times_scale_bound_is_inclusive(tmp_path, scale, ok):
     # 'scale' × 'radiance' may reach MAX_COMPONENT (1e30, "at most") but not exceed it.
@@ -133,6 +132,7 @@ def test_area_radiance_times_scale_bound_is_inclusive(tmp_path, scale, ok):
     else:
         with pytest.raises(BrdflabError, match=r"scene.xml:\d+: .*overflows the float32"):
             load_scene(scene)
+
 
 # -- resources and schedules ------------------------------------------------------------------------------------
 def test_schedules_are_lazy():
