@@ -350,9 +350,10 @@ def parameter_kinds(cls: type, origin: str | None = None) -> dict[str, str]:
     return out
 
 
-def bsdf_parameters(name: str) -> dict[str, Any]:
-    """Parameter name → default value of BSDF type ``name`` (its ``__init__`` keyword defaults)."""
-    cls = bsdf_class(name)
+def bsdf_parameters(name: str, cls: type | None = None) -> dict[str, Any]:
+    """Parameter name → default value of BSDF type ``name`` (its ``__init__`` keyword defaults); ``cls``, when
+    given, is the already-resolved class (``name`` is then not looked up)."""
+    cls = cls if cls is not None else bsdf_class(name)
     defaults = _init_defaults(cls)
     kinds = parameter_kinds(cls)
     if "KNOWN" in cls.__dict__ or _is_builtin_class(cls):  # built-ins: scene names may differ from argument order
@@ -393,9 +394,14 @@ def convert_value(kind: str, text: str, what: str) -> Any:
     return v
 
 
-def property_list(name: str, params: dict[str, Any] | None, owner: str | None = None) -> PropertyList:
-    """A :class:`PropertyList` for BSDF ``name`` from ``params`` (strings are converted by kind)."""
-    cls = bsdf_class(name)
+def property_list(name: str, params: dict[str, Any] | None, owner: str | None = None,
+                  cls: type | None = None) -> PropertyList:
+    """A :class:`PropertyList` for BSDF ``name`` from ``params`` (strings are converted by kind).
+
+    ``cls`` is the BSDF class when the caller has resolved it already (the explorer's allow-list): ``name``
+    is then only used in messages and is never looked up.
+    """
+    cls = cls if cls is not None else bsdf_class(name)
     kinds = parameter_kinds(cls)
     props = PropertyList(owner or f'bsdf "{name}"')
     for key, value in (params or {}).items():
