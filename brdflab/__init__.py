@@ -17,6 +17,8 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.plugins``                             the registry (:mod:`brdflab.plugins`)
 ``bl.warps``                               square-to-sphere/disk/triangle warps and their pdfs
 ``bl.chi2_test`` …                         the statistical checks, returning result objects
+``bl.check``, ``bl.compare``, ``bl.report`` the commands' workflows (:mod:`brdflab.workflows`), returning
+``bl.plot``, ``bl.validate``               the result objects the commands write as JSON
 =========================================  =====================================================================
 
 Names are imported on first use, so ``import brdflab`` stays fast.
@@ -54,6 +56,11 @@ _EXPORTS = {
     "run_battery": "brdflab.validate:run_battery",
     "emitter_checks": "brdflab.validate:emitter_checks",
     "estimator_agreement": "brdflab.validate:estimator_agreement",
+    "check": "brdflab.workflows:check",
+    "compare": "brdflab.workflows:compare",
+    "report": "brdflab.workflows:report",
+    "plot": "brdflab.workflows:plot",
+    "validate": "brdflab.workflows:validate",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -114,21 +114,28 @@ def mesh_scene(cache: Path, n_theta: int, n_phi: int, name: str, obj_name: str |
     return xml
 
 
-def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int | None, case: str) -> BenchResult:
-    """Measure one case in this process (call it in a fresh process for meaningful peak memory)."""
+def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int | None, case: str,
+            plugins: list[str] | None = None) -> BenchResult:
+    """Measure one case in this process (call it in a fresh process for meaningful peak memory).
+
+    ``integrator`` "" means the scene's own; ``plugins`` are ``--plugin`` specs loaded first (a user's scene).
+    """
     from brdflab.imageio import write_images
+    from brdflab.plugins import load_plugins
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
     from brdflab.timing import process_seconds
 
     startup = process_seconds()
+    load_plugins(plugins)
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     t0 = time.perf_counter()
-    scene = load_scene(scene_path, integrator)
+    scene = load_scene(scene_path, integrator or None)
     load_s = time.perf_counter() - t0
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     tris = scene.geometry.triangle_count
-    res = BenchResult(case, integrator, scene.camera.width, scene.camera.height, spp, tris, load_s)
+    res = BenchResult(case, integrator or scene.integrator_type, scene.camera.width, scene.camera.height, spp, tris,
+                      load_s)
     image = None
     for k in range(runs):
         image, st = render(scene, spp=spp, seed=k, workers=workers)
@@ -159,11 +166,15 @@ def brdflab_command() -> list[str]:
     return [found]
 
 
-def whole_process_seconds(scene_path: Path, integrator: str, spp: int, workers: int | None, seed: int = 0) -> float:
+def whole_process_seconds(scene_path: Path, integrator: str, spp: int, workers: int | None, seed: int = 0,
+                          plugins: list[str] | None = None) -> float:
     """Wall time of one ``brdflab render`` process (start-up, load, render, EXR + PNG write, exit)."""
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [*brdflab_command(), "render", str(scene_path), "--spp", str(spp), "--seed", str(seed),
-               "--integrator", integrator, "-o", str(Path(tmp) / "whole.exr"), "--quiet"]
+               "-o", str(Path(tmp) / "whole.exr"), "--quiet"]
+        cmd += ["--integrator", integrator] if integrator else []
+        for spec in plugins or []:
+            cmd += ["--plugin", spec]
         if workers:
             cmd += ["--workers", str(workers)]
         t0 = time.perf_counter()
@@ -174,38 +185,51 @@ def whole_process_seconds(scene_path: Path, integrator: str, spp: int, workers: 
     return seconds
 
 
+def is_scene_case(case: str) -> bool:
+    """True when a bench case names a scene file of the user's (``my_scene.xml``) rather than a fixed case."""
+    return case not in CASES and case.lower().endswith(".xml")
+
+
 def case_scene(case: str) -> Path:
-    """The scene file of a bench case (generating ``mesh1m`` if needed)."""
+    """The scene file of a bench case (generating ``mesh1m`` if needed; a user's scene as given)."""
+    if is_scene_case(case):
+        return Path(case).resolve()
     rel = CASES[case][0]
     return mesh1m_scene(ROOT / ".bench-cache") if rel == "<generated>" else (ROOT / rel).resolve()
 
 
 def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: Path | None,
-              say=print) -> list[dict]:
-    """Run the named cases (each in a subprocess) and return (and optionally write) the JSON records."""
+              say=print, plugins: list[str] | None = None) -> list[dict]:
+    """Run the named cases (each in a subprocess) and return (and optionally write) the JSON records.
+
+    A case may also be the path of a user's scene (``.xml``; its own integrator), with ``plugins`` (``--plugin``
+    specs, resolved to absolute paths) loaded in every process that renders it.
+    """
     records = []
+    plugins = [str(Path(p).resolve()) if Path(p).exists() else p for p in plugins or []]
     for case in cases:
-        integrators = CASES[case][1]
+        integrators = ("",) if is_scene_case(case) else CASES[case][1]
         scene = case_scene(case)
         if not scene.exists():
             say(f"{case}: scene {scene} not found, skipped")
             continue
         for integ in integrators:
             cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integ, str(spp), str(runs),
-                   str(workers or 0), case]
+                   str(workers or 0), case, *plugins]
             out_p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
             if out_p.returncode != 0:
                 say(f"{case}/{integ}: failed\n{out_p.stderr[-2000:]}")
                 continue
             rec = json.loads(out_p.stdout.strip().splitlines()[-1])
-            rec["whole_seconds"] = [whole_process_seconds(scene, integ, spp, workers, seed=k) for k in range(runs)]
+            rec["whole_seconds"] = [whole_process_seconds(scene, integ, spp, workers, seed=k, plugins=plugins)
+                                    for k in range(runs)]
             r = BenchResult(**{k: v for k, v in rec.items() if k in BenchResult.__dataclass_fields__})
             rec["median"] = {k: r.median(k) for k in ("samples_per_s", "rays_per_s", "embree_share", "seconds")}
             rec["median"]["whole_seconds"] = statistics.median(r.whole_seconds)
             rec["spread"] = {k: r.spread(k) for k in ("samples_per_s",)}
             records.append(rec)
             med, spread, fx = rec["median"], rec["spread"], r.fixed
-            say(f"{case:19s} {integ:12s} {r.width}×{r.height} {spp:4d} spp  "
+            say(f"{case:19s} {r.integrator:12s} {r.width}×{r.height} {spp:4d} spp  "
                 f"{med['samples_per_s'] / 1e6:6.2f} M samples/s (±{100 * spread['samples_per_s']:.0f}%)  "
                 f"{med['rays_per_s'] / 1e6:6.2f} M rays/s  Embree {100 * med['embree_share']:4.0f}%  "
                 f"{r.triangles:,} tris  peak {r.peak_rss_bytes / 2**20:6.0f} MiB "
@@ -223,8 +247,8 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
 
 
 def _main_one(argv: list[str]) -> None:
-    scene, integ, spp, runs, workers, case = argv
-    r = run_one(Path(scene), integ, int(spp), int(runs), int(workers) or None, case)
+    scene, integ, spp, runs, workers, case, *plugins = argv
+    r = run_one(Path(scene), integ, int(spp), int(runs), int(workers) or None, case, plugins)
     print(json.dumps(asdict(r)))
 
 

@@ -55,6 +55,7 @@ import importlib
 import importlib.util
 import inspect
 import sys
+import traceback
 from collections.abc import Iterable
 from difflib import get_close_matches
 from importlib.metadata import entry_points
@@ -149,15 +150,18 @@ def _is_builtin_class(cls: type) -> bool:
     return any(f"{cls.__module__}:{cls.__qualname__}" == t for t in BUILTIN["bsdf"].values())
 
 
-def load_plugin(spec: str | Path) -> list[str]:
+def load_plugin(spec: str | Path, base: str | Path | None = None) -> list[str]:
     """Load users' BSDFs from a Python file or a ``package.module:Class`` import path.
 
     Parameters
     ----------
     spec
         A path to a ``.py`` file (every :class:`brdflab.BSDF` subclass defined in it that has a
-        ``type_name`` is registered), ``package.module`` (likewise, from an importable module) or
-        ``package.module:Class`` (that class only).
+        ``type_name`` is registered), ``path/to/file.py:Class`` (that class only), ``package.module``
+        (likewise, from an importable module) or ``package.module:Class`` (that class only).
+    base
+        The folder relative paths and modules are resolved from first — a scene's own folder for the types a
+        scene names (``<bsdf type="my_bsdfs.py:Phong">`` beside the scene); the working directory otherwise.
 
     Returns
     -------
@@ -167,55 +171,111 @@ def load_plugin(spec: str | Path) -> list[str]:
     Raises
     ------
     BrdflabError
-        If the file does not exist, fails to import (the first line of the error is shown), or defines no
-        BSDF.
+        If the file does not exist or is not a regular file, fails to import (the first line of the error and
+        the plugin's own file and line are shown), or defines no BSDF.
     """
+    text = str(spec)
+    left, colon, clsname = text.rpartition(":") if text.count(":") else (text, "", "")
+    if not colon or "/" in clsname or clsname.endswith(".py"):  # "C:/…"-like or no class part
+        left, clsname = text, ""
+    is_package = Path(left).is_dir() and (Path(left) / "__init__.py").is_file() and "/" not in left
+    if left.endswith(".py") or (not clsname and Path(left).exists() and not is_package):
+        path = Path(left)
+        if base is not None and not path.is_absolute():
+            path = Path(base) / path
+        return _load_file(path, clsname, text)
+    return _load_module(left, clsname, text, base)
+
+
+def _load_file(path: Path, clsname: str, text: str) -> list[str]:
     from brdflab.bsdf.base import BSDF
 
-    text = str(spec)
-    path = Path(text)
-    if text.endswith(".py") or path.is_file():
-        if not path.is_file():
-            raise BrdflabError(f"plugin file '{_short(text)}' not found")
-        modname = f"brdflab_plugin_{abs(hash(str(path.resolve()))):x}"
-        if modname in sys.modules:
-            module = sys.modules[modname]
-        else:
-            try:
-                mspec = importlib.util.spec_from_file_location(modname, path)
-                module = importlib.util.module_from_spec(mspec)
-                sys.modules[modname] = module
-                mspec.loader.exec_module(module)
-            except Exception as exc:
-                sys.modules.pop(modname, None)
-                raise BrdflabError(f"{path}: the plugin failed to import: {_first_line(exc)}") from exc
+    if not path.exists():
+        raise BrdflabError(f"plugin file '{_short(str(path), 100)}' not found")
+    if not path.is_file():
+        what = "a folder" if path.is_dir() else "not a regular file"
+        raise BrdflabError(f"plugin file '{_short(str(path), 100)}' is {what}; expected a .py file")
+    modname = f"brdflab_plugin_{abs(hash(str(path.resolve()))):x}"
+    if modname in sys.modules:
+        module = sys.modules[modname]
+    else:
+        try:
+            mspec = importlib.util.spec_from_file_location(modname, path)
+            module = importlib.util.module_from_spec(mspec)
+            sys.modules[modname] = module
+            mspec.loader.exec_module(module)
+        except BaseException as exc:
+            sys.modules.pop(modname, None)
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            raise BrdflabError(f"{_short(str(path), 100)}: the plugin failed to import: {_first_line(exc)}"
+                               f"{plugin_location(exc)}") from exc
+    if clsname:
+        cls = vars(module).get(clsname)
+        if not (isinstance(cls, type) and issubclass(cls, BSDF)):
+            raise BrdflabError(f"plugin '{_short(text, 100)}': {_short(str(path), 100)} defines no BSDF class "
+                               f"'{_short(clsname)}'")
+        classes = [cls]
+    else:
         classes = [c for c in vars(module).values()
                    if isinstance(c, type) and issubclass(c, BSDF) and c.__module__ == modname and c.type_name]
-        origin = str(path)
+    return _register_loaded(classes, f"{path.resolve()}" + (f":{clsname}" if clsname else ""), str(path))
+
+
+def _load_module(modname: str, clsname: str, text: str, base: str | Path | None) -> list[str]:
+    from brdflab.bsdf.base import BSDF
+
+    added = base is not None and str(base) not in sys.path
+    if added:
+        sys.path.insert(0, str(base))
+    try:
+        module = importlib.import_module(modname)
+    except BaseException as exc:
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        raise BrdflabError(f"plugin '{_short(text)}': cannot import module '{_short(modname)}': "
+                           f"{_first_line(exc)}{plugin_location(exc)}") from exc
+    finally:
+        if added:
+            sys.path.remove(str(base))
+    if clsname:
+        cls = getattr(module, clsname, None)
+        if not isinstance(cls, type):
+            raise BrdflabError(f"plugin '{_short(text)}': module '{_short(modname)}' has no class '{_short(clsname)}'")
+        classes = [cls]
     else:
-        modname, _, clsname = text.partition(":")
-        try:
-            module = importlib.import_module(modname)
-        except Exception as exc:
-            raise BrdflabError(f"plugin '{_short(text)}': cannot import module '{_short(modname)}': "
-                               f"{_first_line(exc)}") from exc
-        if clsname:
-            cls = getattr(module, clsname, None)
-            if cls is None:
-                raise BrdflabError(f"plugin '{_short(text)}': module '{modname}' has no class '{_short(clsname)}'")
-            classes = [cls]
-        else:
-            classes = [c for c in vars(module).values()
-                       if isinstance(c, type) and issubclass(c, BSDF) and c.__module__ == module.__name__
-                       and c.type_name]
-        origin = text
+        classes = [c for c in vars(module).values()
+                   if isinstance(c, type) and issubclass(c, BSDF) and c.__module__ == module.__name__
+                   and c.type_name]
+    spec = text
+    file = getattr(module, "__file__", None)
+    if base is not None and file and Path(file).resolve().is_relative_to(Path(base).resolve()):
+        spec = f"{Path(file).resolve()}" + (f":{clsname}" if clsname else "")  # workers load it by path
+    return _register_loaded(classes, spec, text)
+
+
+def _register_loaded(classes: list[type], spec: str, origin: str) -> list[str]:
     classes = [c for c in classes if not _is_builtin_class(c)]
     if not classes:
-        raise BrdflabError(f"plugin '{_short(text)}' defines no subclass of brdflab.BSDF with a `type_name`")
+        raise BrdflabError(f"plugin '{_short(origin, 100)}' defines no subclass of brdflab.BSDF with a `type_name`")
     names = [register_bsdf(c, origin=origin).type_name for c in classes]
-    if text not in LOADED_SPECS:
-        LOADED_SPECS.append(text)
+    if spec not in LOADED_SPECS:
+        LOADED_SPECS.append(spec)
     return names
+
+
+def plugin_location(exc: BaseException) -> str:
+    """`` (at FILE:LINE)`` of the innermost traceback frame outside brdflab itself — the plugin's own line —
+    or of a SyntaxError; empty when the error has no such frame."""
+    if isinstance(exc, SyntaxError) and exc.filename:
+        return f" (at {_short(exc.filename, 100)}:{exc.lineno})"
+    own = str(Path(__file__).resolve().parent)
+    frames = [f for f in traceback.extract_tb(exc.__traceback__)
+              if not str(Path(f.filename).resolve()).startswith(own) and "importlib" not in f.filename]
+    if not frames:
+        return ""
+    f = frames[-1]
+    return f" (at {_short(f.filename, 100)}:{f.lineno})"
 
 
 def load_plugins(specs: Iterable[str | Path] | None) -> list[str]:
@@ -274,8 +334,9 @@ def plugin_class(tag: str, type_name: str, spec: Any = None) -> type:
         if type_name in _USER_BSDFS:
             return _USER_BSDFS[type_name]
         if ":" in type_name and type_name not in BUILTIN["bsdf"]:
+            scene_file = getattr(spec, "file", None)
             try:
-                name = load_plugin(type_name)[0]
+                name = load_plugin(type_name, base=Path(scene_file).parent if scene_file else None)[0]
             except BrdflabError as exc:
                 raise SceneError(exc.message, getattr(spec, "file", None), getattr(spec, "line", None)) from exc
             return _USER_BSDFS[name]
@@ -486,7 +547,14 @@ def build_bsdf(cls: type, props: PropertyList) -> Any:
         return cls(**kwargs)
     except (ValueError, TypeError) as exc:  # the plugin's own argument checks
         raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) rejected its parameters: "
-                          f"{_first_line(exc)}") from exc
+                          f"{_first_line(exc)}{plugin_location(exc)}") from exc
+    except BrdflabError:
+        raise
+    except BaseException as exc:  # anything else the plugin's constructor raises (even SystemExit)
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) failed: {_first_line(exc)}"
+                          f"{plugin_location(exc)}") from exc
 
 
 # -- helpers ----------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError
 
 from .cluster_options import add_cluster_options, cluster_from_args
+from .options import add_plugin_option, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
                    "check-<stem>/ beside the first render)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
+    add_plugin_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)
 
@@ -61,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
         raise BrdflabError(f"--alpha must be in (0, 1), got {args.alpha}")
     if args.ref_var and not args.ref:
         raise BrdflabError("--ref-var needs --ref")
+    load_plugins(args)
     scene = load_scene(args.scene)
     integrator = args.integrator or scene.integrator_type
     make_integrator(integrator)

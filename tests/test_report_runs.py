@@ -62,7 +62,10 @@ def test_no_bias_flag_on_unbiased_integrators(studies, small_study):
         assert not any(r.bias_significant for r in st.rows), [(r.integrator, r.spp, r.bias_p) for r in st.rows]
         for r in st.rows:
             assert r.relmse_ci[0] <= r.relmse <= r.relmse_ci[1] and r.relmse_ci[0] > 0
-            assert r.bias_ci[0] <= r.bias <= r.bias_ci[1]
+            if r.integrator == st.reference_integrator:  # the self-made reference's own estimator: not tested
+                assert np.isnan(r.bias_p) and np.isnan(r.bias_ci).all() and not r.bias_significant
+            else:
+                assert r.bias_ci[0] <= r.bias <= r.bias_ci[1]
             assert r.efficiency_ci[0] <= r.efficiency <= r.efficiency_ci[1]
         # The self-made reference (4 runs of 4 × the largest spp of MIS) is small against every final error.
         top = max(st.spp)
@@ -125,3 +128,14 @@ def test_power_heuristic_variant_and_mis_weights(tmp_path):
     assert em.sum() > 0 and bs.sum() > 0
     assert main(["report", str(VEACH), "--integrators", "direct_mis:cubic"]) == 2
     assert compare(full, full).relmse == 0
+
+
+def test_self_made_reference_leaves_its_own_estimator_untested(studies, small_study):
+    from brdflab.report.variance import summary, untested_for_bias
+
+    st = small_study
+    assert st.reference_integrator == "direct_mis" and untested_for_bias(st) == (
+        ["direct_mis"] if "direct_mis" in st.integrators else [])
+    lines = summary(st)
+    if "direct_mis" in st.integrators:
+        assert any("not tested for bias" in line and "--ref" in line for line in lines), lines

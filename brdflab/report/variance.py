@@ -131,6 +131,9 @@ class Study:
     """Rows at every pass boundary (curves, equal time)."""
     mis_weights: dict[str, np.ndarray] = field(default_factory=dict)
     """Per MIS integrator: (H, W) fraction of the estimate carried by emitter samples."""
+    reference_integrator: str | None = None
+    """The estimator brdflab rendered the reference with (None for a given ``--ref``): its own rows are not
+    tested for bias, since a bias they share with the reference cannot show (:func:`aggregate`)."""
 
     def curve(self, integrator: str, run: int = 0) -> list[Checkpoint]:
         """The checkpoints of one integrator's run, by increasing spp."""
@@ -349,7 +352,8 @@ def run_study(
         label_ = (f"brdflab direct_mis, {REF_RUNS} runs × {ref_spp} spp, independent seeds ({secs:.1f} s); "
                   f"its own relMSE ≈ {ref_noise:.3g}")
     study = Study(scene_path, integrators, spp_list, label_, ref, resolution=(width, height), runs=runs,
-                  reference_noise=ref_noise, reference_mean_var=ref_var)
+                  reference_noise=ref_noise, reference_mean_var=ref_var,
+                  reference_integrator=None if reference is not None else "direct_mis")
     flip_params = None
     if flip:
         from brdflab.report.metrics import flip_parameters
@@ -416,7 +420,10 @@ def aggregate(study: Study) -> list[Row]:
             var = vb + study.reference_mean_var
             df = float(welch_df([vb, study.reference_mean_var], [max(k - 1, 1), np.inf])) if var > 0 else np.inf
             bias = float(b.mean())
-            if var > 0 and k > 1:
+            if name == study.reference_integrator:  # measured against itself: a shared bias cannot show
+                lo = hi = math.nan
+                p = math.nan
+            elif var > 0 and k > 1:
                 lo, hi = mean_interval(bias, var, df, LEVEL)
                 tstat = bias / math.sqrt(var)
                 p = float(2 * (st.t.sf(abs(tstat), df) if np.isfinite(df) else st.norm.sf(abs(tstat))))
@@ -432,6 +439,11 @@ def aggregate(study: Study) -> list[Row]:
             rows.append(Row(name, spp, k, sec, sec_ci, rel, rel_ci, mse, mse_ci, mape, mape_ci, bias, [lo, hi], p,
                             False, eff, eff_ci, fl, fl_ci))
     return rows
+
+
+def untested_for_bias(study: Study) -> list[str]:
+    """The compared integrators whose bias is not tested: the estimator the reference was rendered with."""
+    return [n for n in study.integrators if n == study.reference_integrator]
 
 
 def flag_bias(rows: list[Row]) -> None:
@@ -555,9 +567,14 @@ def summary(study: Study) -> list[str]:
         lines.append(f"{label(n)} is biased: its image mean differs from the reference by {100 * r.bias:+.2f} % "
                      f"(95 % CI {_fmt_ci(r.bias_ci, 100, '+.2f')} %) at {r.spp} spp, p = {r.bias_p:.2g} "
                      f"(significant after Holm's correction over {len(study.rows)} comparisons, α = {BIAS_ALPHA}).")
-    if not flagged and study.runs >= 2:
+    untested = untested_for_bias(study)
+    tested = [r for r in study.rows if r.integrator not in untested]
+    if not flagged and study.runs >= 2 and tested:
         lines.append(f"No integrator's image mean differs significantly from the reference (Holm over "
-                     f"{len(study.rows)} comparisons, α = {BIAS_ALPHA}).")
+                     f"{len(tested)} comparisons, α = {BIAS_ALPHA}).")
+    for n in untested:
+        lines.append(f"{label(n)} is not tested for bias: the reference is brdflab's own {n} (independent seeds), "
+                     "so a bias they share cannot show; give --ref (a reference from another renderer) to test it.")
     warn = reference_warning(study)
     if warn:
         lines.append(warn)
@@ -769,10 +786,14 @@ def write_report(study: Study, out: Path) -> Path:
             items.append((p, f"{label(n)}: emitter (blue) vs BSDF (red) samples' share of the estimate"))
         sections.append(html.section("MIS weights: where each strategy carries the estimate", html.image_row(
             items, cls="plot")))
+    untested = untested_for_bias(study)
     rows = [[r.integrator, r.spp, r.runs, f"{r.seconds:.3g}", f"{r.relmse:.4g}", _fmt_ci(r.relmse_ci, fmt=".3g"),
              f"{r.mse:.4g}", f"{r.mape:.4g}", "" if r.flip is None else f"{r.flip:.4f}",
-             f"{100 * r.bias:+.3f} %", _fmt_ci(r.bias_ci, 100, "+.2f") + " %", f"{r.bias_p:.2g}",
-             "biased" if r.bias_significant else "", f"{r.efficiency:.4g}", _fmt_ci(r.efficiency_ci, fmt=".3g")]
+             f"{100 * r.bias:+.3f} %", _fmt_ci(r.bias_ci, 100, "+.2f") + " %",
+             "—" if not np.isfinite(r.bias_p) else f"{r.bias_p:.2g}",
+             "biased" if r.bias_significant else ("not tested: the reference is this estimator"
+                                                  if r.integrator in untested else ""),
+             f"{r.efficiency:.4g}", _fmt_ci(r.efficiency_ci, fmt=".3g")]
             for r in sorted(study.rows, key=lambda r: (r.integrator, r.spp))]
     sections.append(html.section("All checkpoints (means over runs, 95 % intervals)", html.table(
         ["integrator", "spp", "runs", "seconds", "relMSE", "relMSE CI", "MSE", "MAPE", "FLIP", "bias", "bias CI",

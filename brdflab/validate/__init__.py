@@ -19,6 +19,9 @@ Each test draws from its own random stream: the default seed is derived from the
 type, parameters, θ, which test; :func:`~brdflab.validate.seeding.test_seed`). A BSDF that raises, returns
 wrong shapes, NaN/inf or negative values gets a failed result naming the method, the parameters and the
 first offending directions (:class:`~brdflab.validate.guard.CheckedBSDF`).
+
+``bl.validate(...)`` is :func:`brdflab.workflows.validate`: this package is also callable under that name (the
+package and the function share the name ``validate`` on :mod:`brdflab`, so the package forwards a call).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from brdflab.validate.furnace import AlbedoPoint, FurnaceResult, furnace_test
 from brdflab.validate.guard import CheckedBSDF, PluginFault
 from brdflab.validate.seeding import bsdf_identity, test_seed
 from brdflab.validate.stability import StabilityResult, StabilityRow, stability_test
+from brdflab.workflows import make_package_callable
 
 
 def default_seed(*parts: Any) -> int:
@@ -157,3 +161,6 @@ __all__ = ["AlbedoPoint", "BSDFEntry", "Battery", "CheckedBSDF", "Chi2Result", "
            "PluginFault", "SIGNIFICANCE", "StabilityResult", "StabilityRow", "check_samples", "chi2_test",
            "consistency_test", "default_seed", "furnace_test", "run_battery", "stability_test", "test_seed",
            "warp_chi2_test", "emitter_checks", "estimator_agreement"]
+
+
+make_package_callable(__name__, "validate")

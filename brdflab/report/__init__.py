@@ -1,0 +1,9 @@
+"""HTML pages and their figures: the variance study (``brdflab report``), check, chi-square and validation pages.
+
+``bl.report(...)`` is :func:`brdflab.workflows.report`: this package is also callable under that name (the
+package and the function share the name ``report`` on :mod:`brdflab`, so the package forwards a call).
+"""
+
+from brdflab.workflows import make_package_callable
+
+make_package_callable(__name__, "report")

@@ -1,0 +1,336 @@
+"""The command line's workflows as Python functions: ``check``, ``compare``, ``report``, ``plot``, ``validate``.
+
+Each returns the result object whose ``to_dict()`` the corresponding command writes as JSON
+(:class:`~brdflab.stats.check.CheckResult`, :class:`Comparison`, :class:`~brdflab.report.variance.Study`,
+:class:`PlotResult`, :class:`~brdflab.validate.battery.Battery`) and writes the same HTML page when given an
+``output`` folder. Images may be arrays or EXR paths; ``plugins`` are loaded first, exactly like ``--plugin``.
+``import brdflab as bl`` exports them as ``bl.check``, ``bl.compare``, ``bl.report``, ``bl.plot`` and
+``bl.validate``; ``docs/api.md`` shows each in use (executed by the tests).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.errors import BrdflabError
+
+
+def make_package_callable(package: str, function: str) -> None:
+    """Let ``brdflab.<package>`` be called as :func:`brdflab.workflows.<function>`.
+
+    ``brdflab.validate`` and ``brdflab.report`` are packages *and* the public functions ``bl.validate`` and
+    ``bl.report``; whichever one the attribute holds (Python sets a package attribute when the package is first
+    imported), a call reaches the function. Uses module ``__class__`` assignment (Python ≥ 3.5).
+    """
+    import sys
+    import types
+
+    class _Callable(types.ModuleType):
+        def __call__(self, *args, **kwargs):
+            return globals()[function](*args, **kwargs)
+
+    _Callable.__call__.__doc__ = f"Call :func:`brdflab.workflows.{function}`."
+    sys.modules[package].__class__ = _Callable
+
+def _image(x, what: str) -> np.ndarray:
+    """An (H, W, 3) float array from an array or an EXR path."""
+    if isinstance(x, str | Path):
+        from brdflab.imageio import read_exr
+
+        return read_exr(Path(x))
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] < 1:
+        raise BrdflabError(f"{what}: expected an (H, W, C) image or an EXR path, got an array of shape {a.shape}")
+    return a
+
+
+def _load_plugins(plugins) -> None:
+    from brdflab.plugins import load_plugins
+
+    load_plugins([plugins] if isinstance(plugins, str | Path) else plugins)
+
+
+def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int = 32, runs: int = 4,
+          seed: int = 0, ref=None, ref_var=None, user_spp: int | None = None, block: int = 16, levels: int = 4,
+          alpha: float = 0.01, workers: int | None = None, output: str | Path | None = None,
+          plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
+          resolution: tuple[int, int] | None = None):
+    """Is a render an unbiased estimate of ``scene``? (``brdflab check``)
+
+    Parameters
+    ----------
+    renders
+        One render or a list of independent renders (arrays (H, W, 3) or EXR paths) of the scene.
+    scene
+        The Nori scene file they show.
+    integrator
+        brdflab's integrator for its own estimate (default: the scene's).
+    spp, runs, seed
+        brdflab's independent runs (each ``spp`` samples per pixel) and their base seed.
+    ref, ref_var
+        A reference image (and its per-pixel variance of the mean) to use instead of rendering.
+    user_spp
+        Samples per pixel of the renders (default: their ``brdflab_spp`` attribute, else the scene's).
+    block, levels, alpha
+        Block side (px), number of block sizes block·2^i, family-wise false-alarm level.
+    output
+        A folder for ``check.html``, ``check.json`` and the maps (nothing is written without it).
+    plugins
+        ``--plugin`` specs the scene needs.
+    resolution
+        (width, height) replacing the scene camera's, for brdflab's runs and the renders alike (quick checks).
+
+    Returns
+    -------
+    CheckResult
+        ``consistent``, ``p_value``, ``bias`` with its interval, the block maps; ``to_dict()`` is ``check.json``.
+
+    Examples
+    --------
+    >>> import brdflab as bl
+    >>> scene = "scenes/cbox/cbox_diffuse.xml"
+    >>> mine = bl.render(bl.load_scene(scene, width=32, height=24), spp=8, seed=11, workers=1)
+    >>> res = bl.check(mine, scene, spp=8, runs=2, user_spp=8, block=8, levels=1, resolution=(32, 24), workers=1)
+    >>> res.consistent, res.to_dict()["verdict"].split(":")[0]
+    (True, 'consistent')
+    """
+    from brdflab.scene.loader import load_scene
+    from brdflab.stats.check import run_check
+    from brdflab.stats.jobs import make_integrator
+
+    if spp < 1 or runs < 1:
+        raise BrdflabError("spp and runs must be at least 1")
+    if block < 2:
+        raise BrdflabError("block must be at least 2 pixels")
+    if not 0 < alpha < 1:
+        raise BrdflabError(f"alpha must be in (0, 1), got {alpha}")
+    if ref_var is not None and ref is None:
+        raise BrdflabError("ref_var needs ref")
+    _load_plugins(plugins)
+    scene = Path(scene)
+    sc = load_scene(scene)
+    integrator = integrator or sc.integrator_type
+    make_integrator(integrator)
+    paths = list(renders) if isinstance(renders, list | tuple) else [renders]
+    images = [_image(r, f"render {i + 1}") for i, r in enumerate(paths)]
+    ref_img = None if ref is None else _image(ref, "ref")
+    var_img = None if ref_var is None else _image(ref_var, "ref_var")
+    w, h = resolution or (sc.camera.width, sc.camera.height)
+    for i, img in enumerate(images):
+        if img.shape[:2] != (h, w):
+            raise BrdflabError(f"render {i + 1}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
+                               f"{w}×{h}")
+    res = run_check(images, scene, integrator, spp, runs, seed, ref_img, var_img, block, alpha, workers,
+                    progress=progress, user_spp=user_spp or sc.spp, levels=levels, resolution=resolution)
+    if output is not None:
+        from brdflab.report.check_page import write_check
+
+        names = [Path(p) if isinstance(p, str | Path) else Path(f"render_{i + 1}") for i, p in enumerate(paths)]
+        write_check(Path(output), names, images, res, scene)
+    return res
+
+
+@dataclass
+class Comparison:
+    """Error metrics of an image against a reference (what ``brdflab compare --json`` prints)."""
+
+    mse: float
+    rmse: float
+    relmse: float
+    mape: float
+    bias: float
+    flip: float | None
+    per_channel: dict
+    nonfinite: int
+    pixels: int
+
+    def to_dict(self) -> dict:
+        """Plain-dict form, JSON-safe (a non-finite number becomes None)."""
+        def clean(v):
+            if isinstance(v, dict):
+                return {k: clean(x) for k, x in v.items()}
+            return None if isinstance(v, float) and not math.isfinite(v) else v
+
+        return clean(asdict(self))
+
+
+def compare(test, reference, *, flip: bool = True, crop: tuple[int, int, int, int] | None = None) -> Comparison:
+    """MSE, RMSE, relative MSE, MAPE, relative bias of the mean and HDR-FLIP of ``test`` against ``reference``
+    (``brdflab compare``; definitions in :mod:`brdflab.report.metrics`).
+
+    Parameters
+    ----------
+    test, reference
+        Arrays (H, W, C) or EXR paths.
+    flip
+        Also compute HDR-FLIP (NVIDIA ``flip-evaluator``; exposure range from the reference).
+    crop
+        (x, y, width, height): measure only this region (pixels, origin top left).
+
+    Examples
+    --------
+    >>> import numpy as np, brdflab as bl
+    >>> ref = np.full((8, 8, 3), 0.5)
+    >>> m = bl.compare(ref * 1.1, ref, flip=False)
+    >>> round(m.bias, 6), round(m.relmse, 6)
+    (0.1, 0.009615)
+    """
+    from brdflab.report.metrics import compare as _compare
+    from brdflab.report.metrics import crop as _crop
+    from brdflab.report.metrics import flip_error
+
+    t, r = _image(test, "test"), _image(reference, "reference")
+    if crop is not None:
+        t, r = _crop(t, crop), _crop(r, crop)
+    m = _compare(t, r)
+    f = flip_error(t, r) if flip else None
+    return Comparison(m.mse, m.rmse, m.relmse, m.mape, m.bias, f, m.per_channel, m.nonfinite, m.pixels)
+
+
+def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direct_mats", "direct_mis"), *,
+           spp: Sequence[int] = (4, 16, 64), runs: int = 4, ref: str | Path | None = None, ref_spp: int | None = None,
+           seed: int = 0, workers: int | None = None, resolution: tuple[int, int] | None = None,
+           flip: bool = True, mis_weights: bool = True, output: str | Path | None = None,
+           plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None):
+    """Compare integrators on one scene: error against samples and time, with intervals (``brdflab report``).
+
+    Without ``ref`` the reference is rendered by brdflab's ``direct_mis`` at ``ref_spp`` with its own seeds,
+    independent of the compared runs; the report says so (the MIS row's bias is then measured against the
+    same estimator and cannot show a bias of MIS itself — give ``ref`` for that).
+
+    Returns
+    -------
+    Study
+        Rows per integrator and spp (relMSE, time, confidence intervals); ``output`` also gets ``report.html``.
+
+    Examples
+    --------
+    >>> import brdflab as bl
+    >>> st = bl.report("scenes/cbox/cbox_diffuse.xml", ["direct_ems", "direct_mats"], spp=[2], runs=2,
+    ...                ref_spp=8, resolution=(24, 18), workers=1, flip=False, mis_weights=False)
+    >>> sorted({row.integrator for row in st.rows}), st.reference_integrator
+    (['direct_ems', 'direct_mats'], 'direct_mis')
+    """
+    from brdflab.report.variance import run_study, write_report
+    from brdflab.stats.jobs import validate_specs
+
+    _load_plugins(plugins)
+    names = validate_specs(list(integrators))
+    if not names or len(set(names)) != len(names):
+        raise BrdflabError("integrators: give each integrator once")
+    if not spp or min(spp) < 1 or runs < 1:
+        raise BrdflabError("spp values and runs must be at least 1")
+    study = run_study(Path(scene), names, list(spp), Path(ref) if ref else None, ref_spp, workers, seed,
+                      progress=progress, runs=runs, resolution=resolution, flip=flip, mis_weights=mis_weights)
+    if output is not None:
+        write_report(study, Path(output))
+    return study
+
+
+@dataclass
+class PlotResult:
+    """What ``plot`` drew: the page, and per view its files and data (the CSV columns)."""
+
+    page: Path | None
+    views: list
+
+    def to_dict(self) -> dict:
+        """Plain-dict form."""
+        return {"page": str(self.page) if self.page else None, "views": self.views}
+
+
+def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0, times_cos: bool = False,
+         views: Sequence[str] = ("polar", "lobe", "slice", "albedo", "sphere"), samples: int = 20_000,
+         sphere_size: int = 128, sphere_spp: int = 16, workers: int | None = None, labels: Sequence[str] | None = None,
+         plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None) -> PlotResult:
+    """Draw one BSDF or several overlaid: polar slice, 3D lobe, θh×θd slice, albedo, lit spheres (``brdflab plot``).
+
+    Parameters
+    ----------
+    bsdfs
+        A BSDF object, a ``--bsdf`` text (``"roughconductor:alpha=0.1"``) or a list of either.
+    output
+        The folder for ``index.html`` and each view as PNG, SVG and CSV.
+
+    Examples
+    --------
+    >>> import tempfile, brdflab as bl
+    >>> out = tempfile.mkdtemp()
+    >>> res = bl.plot(["roughconductor:alpha=0.2", bl.Diffuse()], out, views=["polar"])
+    >>> res.page.name
+    'index.html'
+    """
+    from brdflab.viz import spec as bspec
+    from brdflab.viz.static import VIEWS, PlotOptions, write_plots
+
+    _load_plugins(plugins)
+    if not (math.isfinite(theta) and 0 <= theta < 90):
+        raise BrdflabError(f"theta must be in [0, 90) degrees, got {theta:g}")
+    bad = [v for v in views if v not in VIEWS]
+    if bad or not views:
+        raise BrdflabError(f"views: unknown view '{str((bad or [''])[0])[:40]}'; valid: {', '.join(VIEWS)}")
+    items = bsdfs if isinstance(bsdfs, list | tuple) else [bsdfs]
+    objs, names = [], []
+    for item in items:
+        if isinstance(item, str):
+            s = bspec.resolve([item])[0]
+            objs.append(bspec.build(s))
+            names.append(s.label)
+        else:
+            objs.append(item)
+            names.append(getattr(item, "type_name", "") or type(item).__name__)
+    opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos, views=tuple(views), samples=samples,
+                       sphere_size=sphere_size, sphere_spp=sphere_spp, workers=workers)
+    page = write_plots(objs, list(labels or names), Path(output), opts, progress=progress)
+    return PlotResult(Path(page), [str(v) for v in views])
+
+
+def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | None = None,
+             thetas: Sequence[float] | None = None, params: dict | None = None, output: str | Path | None = None,
+             plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None):
+    """Run the validation battery (``brdflab validate``): chi-square, consistency, furnace, stability.
+
+    Parameters
+    ----------
+    bsdfs
+        None for everything built in (every warp and BSDF, the negative control, the light-transport checks),
+        or BSDF names, instances or classes (a plugin's): the whole battery on those only.
+    samples
+        Samples per chi-square test.
+    output
+        A folder for the HTML report.
+
+    Returns
+    -------
+    Battery
+        ``passed``, ``failures()`` and every result; ``output`` also gets ``index.html``.
+
+    Examples
+    --------
+    >>> import brdflab as bl
+    >>> bat = bl.validate(["diffuse"], samples=5_000, thetas=[30])
+    >>> bat.passed
+    True
+    """
+    from brdflab.validate.battery import ALPHAS, THETAS, run_battery
+
+    _load_plugins(plugins)
+    if samples < 1000:
+        raise BrdflabError(f"samples must be at least 1000, got {samples}")
+    kwargs: dict = {}
+    if bsdfs is not None:
+        kwargs = {"bsdfs": bsdfs if isinstance(bsdfs, list | tuple) else [bsdfs], "warp_names": [],
+                  "alphas": tuple(alphas or ALPHAS), "thetas": tuple(thetas or THETAS), "params": params}
+    elif params or alphas or thetas:
+        raise BrdflabError("params, alphas and thetas need bsdfs")
+    bat = run_battery(n=samples, progress=progress, **kwargs)
+    if output is not None:
+        from brdflab.report.validation import write_validation_report
+
+        write_validation_report(bat, Path(output))
+    return bat
