@@ -510,9 +510,8 @@ def render(
         stats.seconds = time.perf_counter() - t0
         stats.samples = done_samples
         stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds
-        if progress is not None:
-            progress(done_samples / total, stats)
         p, _, _, size, last = unit
+        ended = False
         if last:
             film.data += pass_film.data
             pass_film.data[:] = 0.0
@@ -526,7 +525,11 @@ def render(
                          and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
             if (stop is not None and stop.is_set()) or over_time:
                 halt.set()
-                break
+                ended = True
+        if progress is not None:  # after the pass bookkeeping: the line shows the passes completed so far
+            progress(done_samples / total, stats)
+        if ended:
+            break
     results.close()  # ends the workers now (queued units are cancelled)
     stats.seconds = time.perf_counter() - t0
     stats.rays, stats.ray_seconds = geo.stats.rays + worker_rays, geo.stats.seconds + worker_seconds

@@ -13,17 +13,30 @@ import time
 _IMPORTED = time.perf_counter()
 
 
+#: A process whose age exceeds its own CPU time by more than this was not starting up all that time: a shell
+#: ran other commands first and then exec'd brdflab in its place (``bash -c "pip install … && brdflab …"``
+#: execs its last command, which keeps the shell's start time).
+IDLE_START_LIMIT = 2.0
+
+
 def process_seconds() -> float:
     """Seconds since this process started (Linux: from ``/proc``, 10 ms resolution; elsewhere since this
-    module was first imported)."""
+    module was first imported).
+
+    When the process is older than its own CPU time (user + system) by more than :data:`IDLE_START_LIMIT`
+    seconds, the process was exec'd by a shell that had been running other commands (an install, say): its
+    CPU time is returned instead, since start-up (interpreter and imports) is CPU-bound.
+    """
     try:
         with open("/proc/self/stat", "rb") as f:
             start_ticks = int(f.read().rsplit(b")", 1)[1].split()[19])
         with open("/proc/uptime", "rb") as f:
             uptime = float(f.read().split()[0])
-        return max(0.0, uptime - start_ticks / os.sysconf("SC_CLK_TCK"))
+        age = max(0.0, uptime - start_ticks / os.sysconf("SC_CLK_TCK"))
     except (OSError, ValueError, IndexError):
         return time.perf_counter() - _IMPORTED
+    cpu = sum(os.times()[:2])
+    return cpu if age > cpu + IDLE_START_LIMIT else age
 
 
 def fixed_costs_line(startup: float, load: dict[str, float], write: tuple[float, float], whole: float) -> str:

@@ -74,3 +74,34 @@ def test_quiet_writes_nothing():
     p = Progress("rendering", 10, 1, stream=out, quiet=True)
     p(1.0, Stats())
     assert out.getvalue() == ""
+
+
+def test_a_real_render_ends_with_every_pass_counted():
+    """The last plain line of a render counts the passes it completed ("100.0% (4 of 4 spp)", not "0 of 4")."""
+    import brdflab as bl
+    from brdflab.render import render
+
+    from pathlib import Path
+
+    cbox = Path(__file__).resolve().parents[1] / "scenes" / "cbox" / "cbox_diffuse.xml"
+    scene = bl.load_scene(cbox, width=16, height=12)
+    out = io.StringIO()
+    p = Progress("rendering", 16 * 12 * 4, 4, stream=out)
+    render(scene, spp=4, seed=1, workers=1, progress=p)
+    last = out.getvalue().splitlines()[-1]
+    assert last.startswith("rendering: 100.0% (4 of 4 spp)"), out.getvalue()
+
+
+def test_startup_does_not_count_what_a_shell_ran_before_exec():
+    """``bash -c "… && brdflab …"`` execs brdflab in the shell's process: its start-up must not include the
+    commands before it (an install)."""
+    import shutil
+    import subprocess
+    import sys
+
+    if shutil.which("bash") is None or not os.path.exists("/proc/self/stat"):
+        pytest.skip("needs bash and /proc")
+    code = "from brdflab.timing import process_seconds; print(process_seconds())"
+    out = subprocess.run(["bash", "-c", f'sleep 3 && exec "{sys.executable}" -c "{code}"'], capture_output=True,
+                         text=True, timeout=60)
+    assert float(out.stdout) < 2.5, out
