@@ -78,10 +78,10 @@ def test_quiet_writes_nothing():
 
 def test_a_real_render_ends_with_every_pass_counted():
     """The last plain line of a render counts the passes it completed ("100.0% (4 of 4 spp)", not "0 of 4")."""
+    from pathlib import Path
+
     import brdflab as bl
     from brdflab.render import render
-
-    from pathlib import Path
 
     cbox = Path(__file__).resolve().parents[1] / "scenes" / "cbox" / "cbox_diffuse.xml"
     scene = bl.load_scene(cbox, width=16, height=12)
