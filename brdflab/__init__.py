@@ -11,7 +11,8 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.render(scene, spp, seed, workers)``   the (H, W, 3) float32 image (``return_stats=True``: also the stats)
 ``bl.read_exr``, ``bl.write_exr``          linear RGB OpenEXR files
 ``bl.Diffuse``, ``bl.RoughConductor``,     the materials, with keyword parameters named as in scene files
-``bl.RoughSubstrate``
+``bl.RoughSubstrate``, ``bl.Measured``      (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`)
+``bl.fit(measured, model)``                least-squares fit of a model's parameters to a measured BRDF
 ``bl.BSDF``, ``bl.BSDFSample``             the contract a user's material implements (:mod:`brdflab.bsdf.base`)
 ``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
 ``bl.plugins``                             the registry (:mod:`brdflab.plugins`)
@@ -61,6 +62,8 @@ _EXPORTS = {
     "report": "brdflab.workflows:report",
     "plot": "brdflab.workflows:plot",
     "validate": "brdflab.workflows:validate",
+    "fit": "brdflab.fitting:fit",
+    "Measured": "brdflab.bsdf.measured:Measured",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -73,6 +73,7 @@ BUILTIN: dict[str, dict[str, str]] = {
         "diffuse": "brdflab.bsdf.diffuse:Diffuse",
         "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
         "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
+        "measured": "brdflab.bsdf.measured:Measured",
     },
     "emitter": {
         "area": "brdflab.emitter.area:AreaEmitter",

@@ -38,7 +38,7 @@ EXIT_STATUS = {0: "success", 1: "a check failed", 2: "usage error or bad input",
                130: "Ctrl-C (SIGINT)", 141: "output pipe closed", 143: "SIGTERM"}
 
 #: Sub-command modules, in the order they appear in ``--help``. Missing modules are skipped.
-COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot", "explore")
+COMMANDS = ("render", "chi2", "validate", "compare", "report", "check", "bench", "plot", "explore", "fit")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -89,7 +89,13 @@ def main(argv: list[str] | None = None) -> int:
     previous_show = warnings.showwarning
     warnings.showwarning = _show_warning
     try:
-        status = args.func(args)
+        if getattr(args, "effort", None):  # process-wide for this command (forked workers inherit it)
+            from brdflab.effort import use
+
+            with use(args.effort):
+                status = args.func(args)
+        else:
+            status = args.func(args)
         sys.stdout.flush()  # a closed pipe is noticed here, not in the interpreter's final flush
     except BrdflabError as exc:
         if debug:

@@ -20,6 +20,14 @@ def add_plugin_option(p: argparse.ArgumentParser) -> None:
                    "type_name; scenes and --bsdf can then name them (repeatable)")
 
 
+def add_effort_option(p: argparse.ArgumentParser) -> None:
+    """``--effort quick|normal|full``: the quadrature budget (:mod:`brdflab.effort`)."""
+    p.add_argument("--effort", choices=("quick", "normal", "full"), default=None,
+                   help="quadrature budget of the expected counts, ∫p and albedo (fit: the table nodes used): quick "
+                   "(a first look; tabulated BSDFs in seconds), normal (default), full (a final verdict on a "
+                   "stepped lobe)")
+
+
 def load_plugins(args: argparse.Namespace) -> list[str]:
     """Load the ``--plugin`` specs of ``args``; return the registered type names."""
     from brdflab.plugins import load_plugins as _load
@@ -75,7 +83,7 @@ def bsdf_spec_from_args(args: argparse.Namespace,
         Unknown BSDF or parameter, a value of the wrong type or non-finite, ``--alpha`` for a BSDF without
         an ``alpha`` parameter or not > 0, ``--theta`` outside [0, 90).
     """
-    from brdflab.plugins import bsdf_class, parameter_kinds, property_list
+    from brdflab.plugins import bsdf_class, is_builtin, parameter_kinds, property_list
 
     name = resolve_bsdf(name)
     base = name.split("/")[0]
@@ -92,6 +100,10 @@ def bsdf_spec_from_args(args: argparse.Namespace,
     for t in args.theta or []:
         if not (math.isfinite(t) and 0 <= t < 90):
             raise BrdflabError(f"--theta must be in [0, 90) degrees, got {t}")
+    if is_builtin(base):  # a built-in's own input errors (a missing table file) are usage errors, before any test
+        from brdflab.validate.battery import make_named_bsdf
+
+        make_named_bsdf(name, alphas[0] if alphas else None, params)
     return name, params, alphas, args.theta
 
 

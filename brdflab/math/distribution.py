@@ -151,3 +151,57 @@ class Distribution2D:
         r = np.clip(np.floor(pts[:, 1]).astype(np.int64), 0, self.h - 1)
         inside = (pts[:, 0] >= 0) & (pts[:, 0] <= self.w) & (pts[:, 1] >= 0) & (pts[:, 1] <= self.h)
         return np.where(inside, np.take(self._density_flat, r * self.w + c), 0.0)
+
+
+class Distribution2DStack:
+    """K piecewise-constant distributions over the same (H, W) grid of cells on [0, W) × [0, H), sampled and
+    evaluated by table index (a tabulated 3-D density, e.g. one 2-D table per incident angle).
+
+    Table k is sampled by one binary search over all K·H·W cells: its cumulative sums are stored shifted by k
+    (table k's CDF runs from k to k + 1), so ``searchsorted(cdf, k + u)`` lands in table k whatever k each
+    sample has. An all-zero table falls back to the uniform distribution, as :class:`Distribution2D` does.
+
+    Parameters
+    ----------
+    weights
+        Non-negative cell weights (K, H, W).
+    """
+
+    def __init__(self, weights: np.ndarray) -> None:
+        w = np.asarray(weights, dtype=np.float64)
+        if w.ndim != 3 or w.size == 0:
+            raise ValueError("Distribution2DStack needs a non-empty (K, H, W) weight array")
+        w = np.where(np.isfinite(w) & (w > 0), w, 0.0)
+        empty = w.sum(axis=(1, 2)) <= 0
+        w[empty] = 1.0
+        self.k, self.h, self.w = w.shape
+        self.cells = self.h * self.w
+        self.density = (w / w.sum(axis=(1, 2), keepdims=True)).reshape(self.k, -1)
+        cdf = np.cumsum(self.density, axis=1)
+        cdf[:, -1] = 1.0
+        self._cdf = (cdf + np.arange(self.k)[:, None]).ravel()
+        self._flat = self.density.ravel()
+
+    def sample(self, k: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Points (N, 2) = (x, y) of tables ``k`` (N,) for uniforms ``u`` (N, 2); also their density per unit area."""
+        k = np.asarray(k, dtype=np.int64)
+        x = k + np.minimum(u[:, 0], np.nextafter(1.0, 0.0))
+        first = k * self.cells
+        cell = np.clip(np.searchsorted(self._cdf, x, side="right"), first, first + self.cells - 1)
+        p = np.take(self._flat, cell)
+        lower = np.where(cell == first, k.astype(np.float64), np.take(self._cdf, np.maximum(cell - 1, 0)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.where(p > 0, (x - lower) / p, 0.5)
+        row, col = np.divmod(cell - first, self.w)
+        pts = np.empty((len(k), 2))
+        pts[:, 0] = col + np.clip(off, 0.0, np.nextafter(1.0, 0.0))
+        pts[:, 1] = row + np.minimum(u[:, 1], np.nextafter(1.0, 0.0))
+        return pts, p
+
+    def pdf(self, k: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Density per unit area of tables ``k`` (N,) at points (N, 2) = (x, y); 0 outside [0, W] × [0, H]."""
+        k = np.asarray(k, dtype=np.int64)
+        c = np.clip(np.floor(pts[:, 0]).astype(np.int64), 0, self.w - 1)
+        r = np.clip(np.floor(pts[:, 1]).astype(np.int64), 0, self.h - 1)
+        inside = (pts[:, 0] >= 0) & (pts[:, 0] <= self.w) & (pts[:, 1] >= 0) & (pts[:, 1] <= self.h)
+        return np.where(inside, np.take(self._flat, k * self.cells + r * self.w + c), 0.0)

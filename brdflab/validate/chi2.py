@@ -246,16 +246,22 @@ def _split_cells(xa, xb, ya, yb, owner, max_dx=None, max_dy=None, x_cuts=(), geo
     return xa, xb, ya, yb, owner
 
 
-def integrate_rects(func, xa, xb, ya, yb, owner, n_owner: int, n: int = 1, max_depth: int = 10,
-                    max_cells: int = 60_000) -> tuple[np.ndarray, np.ndarray]:
+def integrate_rects(func, xa, xb, ya, yb, owner, n_owner: int, n: int = 1, max_depth: int | None = None,
+                    max_cells: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Adaptive ∫∫ func(x, y) dx dy over rectangles, summed per ``owner``; returns (integrals, error estimates).
 
     Each rectangle is integrated with 4- and 8-point tensor Gauss–Legendre rules; where they differ by more
     than 10⁻³ expected counts (for ``n`` samples) and 10⁻⁴ relative, it is split 2×2 and retried, up to
     ``max_depth`` times (at most ``max_cells`` rectangles per level: beyond, the worst are refined and the
     rest accepted). The error estimate per owner is the sum of |8-point − 4-point| over its accepted
-    rectangles (the 4-point rule's error: a conservative bound on the 8-point result's).
+    rectangles (the 4-point rule's error: a conservative bound on the 8-point result's). ``max_depth`` and
+    ``max_cells`` default to the effort in force (:mod:`brdflab.effort`: 10 and 60 000 at ``normal``).
     """
+    from brdflab import effort
+
+    budget = effort.current()
+    max_depth = budget.max_depth if max_depth is None else max_depth
+    max_cells = budget.max_cells if max_cells is None else max_cells
     total = np.zeros(n_owner)
     err = np.zeros(n_owner)
     for depth in range(max_depth + 1):
@@ -282,7 +288,7 @@ def integrate_rects(func, xa, xb, ya, yb, owner, n_owner: int, n: int = 1, max_d
 
 
 def adaptive_integrate(func, x_edges: np.ndarray, y_edges: np.ndarray, n: int = 1,
-                       max_depth: int = 10, geometric_x: bool = False) -> np.ndarray:
+                       max_depth: int | None = None, geometric_x: bool = False) -> np.ndarray:
     """∫∫ func(x, y) dx dy over every cell of the grid ``x_edges`` × ``y_edges`` (see :func:`integrate_rects`)."""
     nx, ny = len(x_edges) - 1, len(y_edges) - 1
     ix, iy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")

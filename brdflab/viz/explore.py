@@ -92,8 +92,10 @@ def allowed_bsdfs() -> dict[str, type]:
     for name in bsdf_names():
         try:
             cls = bsdf_class(name)
-            parameter_kinds(cls)
+            kinds = parameter_kinds(cls)
         except BrdflabError:
+            continue
+        if "filename" in kinds:  # a type that reads a file the browser would name (``measured``): not offered
             continue
         out[name] = cls
     return out

@@ -102,8 +102,10 @@ def albedo_quadrature(bsdf, theta_i: float) -> float:
         wo = coords.spherical(np.arccos(np.clip(mu, -1.0, 1.0)), phi)
         return eval_luminance(bsdf, wi, wo) * mu
 
+    from brdflab import effort
+
     cells = chi2.adaptive_integrate(integrand, np.linspace(0.0, 1.0, 9), np.linspace(0.0, 2 * np.pi, 17),
-                                    n=10**6, max_depth=8)
+                                    n=10**6, max_depth=effort.current().view_depth)
     return float(cells.sum())
 
 
