@@ -25,11 +25,11 @@ tabulated on 64 × 96 cells in (u, φ_h), θ_h = u²·π/2 (the sqrt grading of 
 specular peak), from node values of the half-vector density Y(f) cos θ_o · 4|ω_i·ω_h| (dω_o = 4|ω_i·ω_h|
 dω_h, PBR 4th ed. eq. 9.33); a cell weighs the mean of its corners times its solid angle. A sample picks
 the table of the neighbouring θ_k below or above θ_i with the linear weights (the third uniform), a cell
-from it (:class:`~brdflab.math.distribution.Distribution2DStack`), then ω_h inside the cell from the bilinear density in (φ_h, cos θ_h) between the cell's four node values (so the
-density is continuous from cell to cell: no step for a quadrature to trip on), and ω_o = reflect(ω_i, ω_h);
-a defensive share δ = 0.1 of cosine-weighted samples keeps pdf > 0 wherever f > 0. The pdf is the same
-mixture, evaluated exactly: p(ω_o) = (1−δ) Σ_k w_k p_k(ω_h)/(4|ω_i·ω_h|) + δ cos θ_o/π — finite everywhere,
-also at the specular peak.
+from it (:class:`~brdflab.math.distribution.Distribution2DStack`), then ω_h inside the cell from the
+bilinear density in (φ_h, cos θ_h) between the cell's four node values (so the density is continuous from
+cell to cell: no step for a quadrature to trip on), and ω_o = reflect(ω_i, ω_h); a defensive share δ = 0.1
+of cosine-weighted samples keeps pdf > 0 wherever f > 0. The pdf is the same mixture, evaluated exactly:
+p(ω_o) = (1−δ) Σ_k w_k p_k(ω_h)/(4|ω_i·ω_h|) + δ cos θ_o/π — finite everywhere, also at the specular peak.
 """
 
 from __future__ import annotations
