@@ -226,7 +226,8 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, tit
         ax.set_xlabel("θh [°]")
         ax.set_ylabel("θd [°]")
         fig.colorbar(im, ax=ax, shrink=0.85)
-    lim = max(0.05, float(np.nanpercentile(np.abs(ratio), 99))) if np.isfinite(ratio).any() else 1.0
+    # colour range: the residual's 95th percentile, between 0.05 and 2 decades (beyond: saturated)
+    lim = float(np.clip(np.nanpercentile(np.abs(ratio), 95), 0.05, 2.0)) if np.isfinite(ratio).any() else 1.0
     im = axes[2].imshow(ratio, origin="lower", extent=(0, 90, 0, 90), vmin=-lim, vmax=lim, cmap="RdBu_r")
     axes[2].set_title("residual: log₁₀(model / measured) where f > 10⁻⁵ max")
     axes[2].set_xlabel("θh [°]")
