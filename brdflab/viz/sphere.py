@@ -43,9 +43,17 @@ _EMITTERS = {
 }
 
 
-def sky_map(width: int = 64, height: int = 32) -> np.ndarray:
-    """A small procedural HDR sky (H, W, 3): the course lookup reads +Y from the bottom rows."""
-    y, x = np.meshgrid(np.arange(height) + 0.5, np.arange(width) + 0.5, indexing="ij")
+def sky_map(width: int = 128, height: int = 1024) -> np.ndarray:
+    """A small procedural HDR sky (H, W, 3) for the course lookup (:mod:`brdflab.emitter.environment`, spec §9.3).
+
+    The lookup reads +Y from the bottom rows and places texel (c, r) at the continuous position (c, r), i.e.
+    row r at θ = π(1 − r/H) and column c at φ = 2π(1 − c/W); rows wrap, so the cap θ < π/H around the zenith
+    blends the last row with row 0, the nadir. A realistic sky has a dark ground at the nadir, so that cap is
+    a dark spot in every glossy reflection of the zenith (it was 5.6° wide with a 32-row map); the map is
+    therefore tall (1024 rows: a 0.18° cap, below a pixel of the lit-sphere views) and narrow (128 columns:
+    the sky varies slowly in φ), 21 MB of sampling tables.
+    """
+    y, x = np.meshgrid(np.arange(height, dtype=np.float64), np.arange(width, dtype=np.float64), indexing="ij")
     theta = (1.0 - y / height) * np.pi
     phi = (1.0 - x / width) * 2 * np.pi
     d = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], axis=-1)
