@@ -222,34 +222,35 @@ def statistic(b: Binning, pdf_column: np.ndarray) -> tuple[float, int, float, np
     """
     from scipy import stats
 
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         w = np.where(pdf_column > 0, b.r / pdf_column, 0.0)
-    w = np.where(np.isfinite(w), w, 0.0)
-    n = max(b.n, 1)
-    nc = len(b.mu)
-    t = np.bincount(b.cell, w, minlength=nc) / n
-    m2 = np.bincount(b.cell, w * w, minlength=nc) / n
-    sw, sw2 = float(w.sum()), float((w * w).sum())
-    rho_all = sw2 / sw if sw > 0 else 1.0
-    rho = _smoothed_rho(b, w, t, m2, rho_all)
-    var = np.maximum(b.mu * rho - b.mu**2, 1e-300)
-    keep = b.mu > 0
-    stat = float((n * (t - b.mu) ** 2 / var)[keep].sum())
-    dof = int(keep.sum())
-    p_cells = float(stats.chi2.sf(stat, dof)) if dof > 0 and np.isfinite(stat) else float("nan")
-    # The total Σ_c T_c against ∫ r (a constant factor in the column, a wrong failure rate): a z-test with
-    # the sample variance of the per-sample terms (w, 0 for a failed sample), whose mean is the total.
-    # (The cells' μ·ρ − μ² form cancels catastrophically here: μ ≈ 1 and w ≈ 1 for similar methods.)
-    # With w ≡ 1 and no failure (brdflab's own method) the total is exact: only the quadrature error remains.
-    mu_t = float(b.mu.sum())
-    # The larger of the sample variance and E[w²] − μ² (H0's: it stays positive when no sample happened
-    # to fail although ∫ r < 1 by 10⁻⁵, where the sample variance is 0).
-    var_t = max(sw2 / n - (sw / n) ** 2, sw2 / n - mu_t**2, 0.0) / n + (3 * b.integration_error) ** 2 + \
-        (1e-9 * mu_t) ** 2
-    z_t = (sw / n - mu_t) / np.sqrt(max(var_t, 1e-300))
-    p_total = float(2 * stats.norm.sf(abs(z_t))) if np.isfinite(z_t) else float("nan")
-    # Two tests of one hypothesis, Šidák-combined: p = 1 − (1 − min p)².
-    p = 1.0 - (1.0 - min(p_cells, p_total)) ** 2 if np.isfinite(p_cells) and np.isfinite(p_total) else p_cells
+        w = np.where(np.isfinite(w), w, 0.0)
+        n = max(b.n, 1)
+        nc = len(b.mu)
+        t = np.bincount(b.cell, w, minlength=nc) / n
+        m2 = np.bincount(b.cell, w * w, minlength=nc) / n
+        sw, sw2 = np.float64(w.sum()), np.float64((w * w).sum())
+        rho_all = sw2 / sw if sw > 0 else 1.0
+        rho = _smoothed_rho(b, w, t, m2, rho_all)
+        var = np.maximum(b.mu * rho - b.mu**2, 1e-300)
+        keep = b.mu > 0
+        stat = float((n * (t - b.mu) ** 2 / var)[keep].sum())
+        dof = int(keep.sum())
+        # Weights overflowing (a reported pdf of 1e-300 where r is not small) are an absurd column: p = 0.
+        p_cells = (float(stats.chi2.sf(stat, dof)) if np.isfinite(stat) else 0.0) if dof > 0 else float("nan")
+        # The total Σ_c T_c against ∫ r (a constant factor in the column, a wrong failure rate): a z-test with
+        # the sample variance of the per-sample terms (w, 0 for a failed sample), whose mean is the total.
+        # (The cells' μ·ρ − μ² form cancels catastrophically here: μ ≈ 1 and w ≈ 1 for similar methods.)
+        # With w ≡ 1 and no failure (brdflab's own method) the total is exact: only the quadrature error remains.
+        mu_t = float(b.mu.sum())
+        # The larger of the sample variance and E[w²] − μ² (H0's: it stays positive when no sample happened
+        # to fail although ∫ r < 1 by 10⁻⁵, where the sample variance is 0).
+        var_t = max(sw2 / n - (sw / n) ** 2, sw2 / n - mu_t**2, 0.0) / n + (3 * b.integration_error) ** 2 + \
+            (1e-9 * mu_t) ** 2
+        z_t = (sw / n - mu_t) / np.sqrt(max(var_t, 1e-300))
+        p_total = float(2 * stats.norm.sf(abs(z_t))) if np.isfinite(z_t) else 0.0
+        # Two tests of one hypothesis, Šidák-combined: p = 1 − (1 − min p)².
+        p = 1.0 - (1.0 - min(p_cells, p_total)) ** 2 if np.isfinite(p_cells) and np.isfinite(p_total) else p_cells
     ratio = (sw / n) / b.integral if b.integral > 0 else float("nan")
     ess = sw * sw / sw2 if sw2 > 0 else 0.0
     return stat, dof, p, t, ratio, ess
