@@ -22,17 +22,20 @@ weight columns are not allowed.
 
 What is checked
 ---------------
-Samples are grouped by ω_i (components equal within 10⁻⁴; several ω_i per file). For each group:
+Samples are grouped by ω_i (components equal within 10⁻⁴; several ω_i per file). For each group, with a pdf
+column, the verdict does **not** assume brdflab's sampling method (docs/external-samples.md):
 
-* **Distribution**: the chi-square test of :mod:`brdflab.validate.chi2` of the file's ω_o against
-  brdflab's pdf for that ω_i (bins placed by a pilot sample of brdflab's *own* sampler, so the user's data
-  never place their own bins). For a BSDF, directions below the horizon count as failed, on both sides
-  (renderers differ in whether such samples fail or carry weight 0). Šidák-corrected over the groups.
-* **Pdf column**: relative error |p_file − p| / max(p_file, p) per sample; it fails when more than 0.1 % of
-  the samples are off by more than 10⁻² (float32 renderers stay far below). The worst sample is reported
-  with its line. Heuristic hints name the usual bugs: p_file / p ≈ 4 |ω_o·ω_h| (the pdf of the half vector,
-  i.e. the 1/(4|ω_o·ω_h|) Jacobian is missing), a constant ratio (a missing normalisation constant).
-* **Weight columns**: the same against brdflab's f·cos θ_o / p; hint when the ratio is cos θ_i / cos θ_o.
+* **Self-consistency** (:mod:`brdflab.validate.selfconsistency`): the directions against the file's own
+  pdf column (Σ r/p_k per bin against N ∫ r, r = brdflab's pdf of the reference shaping the bins); any
+  correct method passes. Šidák-corrected over the groups.
+* **Weight columns**: against the reference's f·cos θ_o / p with p the (self-consistent) pdf column, or the
+  true density when a hint identifies it; hints name weight and pdf bugs jointly
+  (:mod:`brdflab.validate.sample_hints`), and parameters left at their default that the weights fit at
+  another value.
+* **Same method as brdflab** (informative for a BSDF; the verdict for a warp, a file without pdf column, or
+  a blind self-consistency test): the chi-square test of :mod:`brdflab.validate.chi2` of ω_o against
+  brdflab's pdf (bins from a pilot of brdflab's *own* sampler; directions below the horizon count as failed
+  on both sides) and the pdf column per sample (|p_file − p| / max(p_file, p) > 10⁻² for at most 0.1 %).
 
 A malformed file raises :class:`~brdflab.errors.BrdflabError` with ``file:line``.
 """
