@@ -102,7 +102,8 @@ def pdf_identity(column: np.ndarray, ours: np.ndarray, wi1: np.ndarray, wo: np.n
     ok = np.isfinite(ratio) & (ratio > 0)
     if ok.sum() >= 10:
         med = float(np.median(ratio[ok]))
-        if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3:
+        # A "constant" of 1 is no explanation: the column agrees on most samples and differs somewhere else.
+        if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3 and abs(med - 1) > 1e-2:
             return f"the file's values are brdflab's times a constant {med:.6g} (a missing normalisation factor?)"
     return ""
 
@@ -179,7 +180,7 @@ def weight_hint(ratio: np.ndarray, wi1: np.ndarray, wo: np.ndarray, pdf_fix: np.
     ok = np.isfinite(ratio) & (ratio > 0)
     if ok.sum() >= 10:
         med = float(np.median(ratio[ok]))
-        if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3:
+        if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3 and abs(med - 1) > 1e-2:
             return f"the weights are the expected ones times a constant {med:.6g} (a parameter left at its default, " \
                    "or a missing factor?)"
     return ""
