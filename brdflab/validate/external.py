@@ -355,18 +355,23 @@ class ExternalResult:
                     out.append("    " + g.pdf.describe(self.path, hint=False))
             else:
                 why = g.sc.summary()
-                if g.chi2.passed:
-                    out.append(f"  WRONG PDF COLUMN: the sampled directions follow {ours} ({chi_txt}), but not the "
-                               f"pdf written beside them ({why})")
+                if g.pdf_identity and g.chi2.passed:
+                    out.append(f"  WRONG PDF COLUMN: the sampled directions are consistent with {ours} ({chi_txt}), "
+                               f"but not with the pdf written beside them ({why})")
                 elif g.pdf is not None and g.pdf.passed:
                     out.append(f"  WRONG DISTRIBUTION: the pdf column is brdflab's, but the sampled directions do not "
                                f"follow it ({why}; {chi_txt}): the sampling routine (warp) is wrong")
+                elif g.pdf_fixes:
+                    out.append(f"  WRONG PDF COLUMN: the sampled directions do not follow the pdf written beside them "
+                               f"({why}), but they do follow it corrected as the hint says (whatever the sampling "
+                               "method)")
                 else:
-                    out.append(f"  WRONG DISTRIBUTION OR PDF COLUMN: the sampled directions follow neither the pdf "
-                               f"written beside them ({why}) nor {ours} ({chi_txt})")
+                    ctx = f"nor {ours} ({chi_txt})" if not g.chi2.passed else \
+                        f"(they are consistent with {ours}: {chi_txt}; then the column is the wrong part)"
+                    out.append(f"  WRONG DISTRIBUTION OR PDF COLUMN: the sampled directions do not follow the pdf "
+                               f"written beside them ({why}) {ctx}")
                 hints = [g.pdf_identity] if g.pdf_identity else \
-                    [f"{t} — with that corrected, the samples are self-consistent (whatever the sampling method)"
-                     for t in g.pdf_fixes[:1]]
+                    [f"{t} — with that corrected, the samples are self-consistent" for t in g.pdf_fixes[:1]]
                 out.extend("    hint: " + h for h in hints)
                 if g.pdf is not None and not g.pdf.passed:
                     out.append("    " + g.pdf.describe(self.path, hint=False))
@@ -615,15 +620,21 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             g.sc = _sc.self_consistency_test(wo_n[cmp], fp, len(idx), pdf_fn, pilot, threshold=thr, binning=binning)
             g.pdf_identity = hints.pdf_identity(fp, ours[cmp], wi1, wo_n[cmp], ref if kind == "bsdf" else None,
                                                 kind == "bsdf")
-            if g.sc.passed:
-                p_true = fp
-            elif g.chi2.passed:
-                p_true = ours[cmp]  # the directions follow brdflab's pdf
-            if not g.sc.passed and not g.sc.blind and not g.pdf_identity:
+            # The true density of the directions, from the strongest evidence: a self-consistent column; the
+            # column identified as brdflab's pdf with a bug while the directions are consistent with brdflab's;
+            # a correction of the column that makes it self-consistent; brdflab's pdf (chi-square not rejected).
+            fixes = []
+            if not g.sc.passed and not g.sc.blind:
                 fixes = hints.pdf_corrections(binning, fp, wi1, wo_n[cmp], kind == "bsdf", g.sc.mass_ratio, thr)
                 g.pdf_fixes = [t for t, _ in fixes]
-                if fixes and p_true is None:
-                    p_true = fp * fixes[0][1]
+            if g.sc.passed:
+                p_true = fp
+            elif g.pdf_identity and g.chi2.passed:
+                p_true = ours[cmp]
+            elif fixes:
+                p_true = fp * fixes[0][1]
+            elif g.chi2.passed:
+                p_true = ours[cmp]
             g.pdf = _column_check("pdf", fp, ours[cmp], lines[cmp], wo_n[cmp], g.pdf_identity)
             if not g.pdf.passed and not g.pdf.hint and g.chi2.passed and not g.judged_by_self_consistency:
                 g.pdf.hint = "the sampled directions follow brdflab's pdf: only the pdf written with them is wrong"
