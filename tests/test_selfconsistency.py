@@ -235,3 +235,32 @@ def test_doctests():
 
     for mod in (sc, samples_report):
         assert doctest.testmod(mod).failed == 0
+
+
+NOJAC_PLUGIN = '''
+import numpy as np
+from brdflab.bsdf.microfacet import beckmann_d, half_vector
+from brdflab.bsdf.roughconductor import RoughConductor, alpha_values
+
+
+class StudentConductor(RoughConductor):
+    """The course's classic bug: pdf() is the density of the half vector (no 1/(4|wo.wh|) Jacobian)."""
+
+    type_name = "student_conductor_hb"
+
+    def pdf(self, wi, wo, uv=None):
+        wh, ok = half_vector(wi, wo)
+        d = beckmann_d(wh[:, 2], alpha_values(self.alpha, uv, len(wi)))
+        return np.where(ok & (wi[:, 2] > 0) & (wo[:, 2] > 0), d * np.maximum(wh[:, 2], 0.0), 0.0)
+'''
+
+
+def test_cli_prints_one_line_per_cause(tmp_path, capsys):
+    plugin = tmp_path / "student.py"
+    plugin.write_text(NOJAC_PLUGIN)
+    assert main(["chi2", "--plugin", str(plugin), "--bsdf", "student_conductor_hb", "--alpha", "0.1", "--alpha", "0.5",
+                 "--theta", "0", "--theta", "60", "-n", "5000", "-o", str(tmp_path / "r")]) == 1
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.strip().startswith("FAIL")]
+    assert len(lines) == 1, err
+    assert "pdf() lacks the 1/(4|ωo·ωh|) Jacobian" in lines[0] and "α=0.1: θ=0,60; α=0.5: θ=0,60" in lines[0]

@@ -36,15 +36,22 @@ def _fmt(v) -> str:
 
 
 def _points(points: list[tuple]) -> str:
-    """'α=0.1: θ=0,30; α=0.3: θ=60' from (α, θ) pairs (α None: 'θ=0,30')."""
+    """'α=0.1: θ=0,30; α=0.3: θ=60' from (α, θ) pairs (α None: 'θ=0,30'; α may be a label string)."""
     by_a: OrderedDict = OrderedDict()
     for a, t in points:
         by_a.setdefault(a, []).append(t)
     parts = []
     for a, ts in by_a.items():
         th = "θ=" + ",".join(_fmt(t) for t in ts)
-        parts.append(th if a is None else f"α={_fmt(a)}: {th}")
+        parts.append(th if a is None or a == "" else (f"{a}: {th}" if isinstance(a, str) else f"α={_fmt(a)}: {th}"))
     return "; ".join(parts)
+
+
+def _label(params: dict) -> str:
+    """α and the other parameters of a test (not θ), e.g. 'α=0.1' or 'exponent=20'."""
+    bits = [f"α={_fmt(params['alpha'])}"] if params.get("alpha") is not None else []
+    bits += [f"{k}={_fmt(v)}" for k, v in params.items() if k not in ("alpha", "theta") and v is not None]
+    return " ".join(bits)
 
 
 def diagnose(result: c2.Chi2Result, n: int = 20_000, seed: int = 0, entry=None) -> str:
@@ -133,9 +140,10 @@ def grouped_failures(bat, diagnose_chi2: bool = True, bsdfs=None) -> list[str]:
         cause = causes.get(r.name) or _symptom(r.fault) or "p ≤ threshold"
         groups.setdefault((r.name, cause), []).append(r)
     for (name, cause), rs in groups.items():
-        pts = _points([((r.params or {}).get("alpha"), (r.params or {}).get("theta")) for r in rs])
+        pts = _points([(_label(r.params or {}), (r.params or {}).get("theta")) for r in rs])
         integ = [r.integral for r in rs if np.isfinite(r.integral)]
-        sym = f"; ∫ p dω from {min(integ):.4g} to {max(integ):.4g}" if integ else ""
+        sym = "" if not integ or max(abs(x - 1) for x in integ) < 2e-3 else \
+            (f"; ∫ p dω = {integ[0]:.4g}" if len(integ) == 1 else f"; ∫ p dω from {min(integ):.4g} to {max(integ):.4g}")
         if name in causes:
             line = f"FAIL chi2 {name}: {cause} ({len(rs)} tests: {pts}{sym})"
         elif cause == "p ≤ threshold":
@@ -150,7 +158,7 @@ def grouped_failures(bat, diagnose_chi2: bool = True, bsdfs=None) -> list[str]:
             base = r.name.split(" α=")[0]
             cons.setdefault((base, causes.get(base) or _symptom(_consistency_what(r))), []).append(r)
     for (base, _), rs in cons.items():
-        pts = _points([((r.params or {}).get("alpha"), r.theta) for r in rs])
+        pts = _points([(_label(r.params or {}), r.theta) for r in rs])
         what = _consistency_what(rs[0])
         if base in causes:
             out.append(f"FAIL consistency {base}: {causes[base]} ({len(rs)} checks: {pts}; e.g. {what})")
