@@ -196,7 +196,7 @@ def test_forgotten_parameter_is_flagged_and_parameters_are_echoed(tmp_path):
 
 
 def test_chi2_samples_writes_the_report(tmp_path, capsys):
-    f = _vndf_file(tmp_path / "nojac.txt", 0.3, n=3_000, pdf_bug=True)
+    f = _vndf_file(tmp_path / "nojac.txt", 0.3, n=1_500, pdf_bug=True)
     out = tmp_path / "report"
     assert main(["chi2", "--samples", str(f), "--against", "roughconductor", "--alpha", "0.3", "--param", "R0=0.9",
                  "-o", str(out)]) == 1
@@ -264,3 +264,27 @@ def test_cli_prints_one_line_per_cause(tmp_path, capsys):
     lines = [x for x in err.splitlines() if x.strip().startswith("FAIL")]
     assert len(lines) == 1, err
     assert "pdf() lacks the 1/(4|ωo·ωh|) Jacobian" in lines[0] and "α=0.1: θ=0,60; α=0.5: θ=0,60" in lines[0]
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.3])
+def test_cosine_sampler_of_a_sharp_conductor(tmp_path, scale):
+    """Correct but far from brdflab's method (weights r/p spanning orders of magnitude): judged with
+    cosine-weighted shaping instead of being called broken; a wrong constant in its pdf is still caught."""
+    from brdflab.math import warps
+
+    b = RoughConductor(0.9, 0.05)
+    rng = np.random.default_rng(12)
+    rows = []
+    for th in (0.0, 45.0):
+        wi = np.tile([np.sin(np.radians(th)), 0.0, np.cos(np.radians(th))], (6_000, 1))
+        wo = warps.square_to_cosine_hemisphere(rng.random((6_000, 2)))
+        p = wo[:, 2] / np.pi
+        rows.append(np.column_stack([wi, wo, scale * p, b.eval(wi, wo) * (wo[:, 2] / p)[:, None]]))
+    np.savetxt(tmp_path / "cos.txt", np.concatenate(rows), fmt="%.9g")
+    res = v.check_samples(tmp_path / "cos.txt", "roughconductor", alpha=0.05, params={"R0": 0.9})
+    text = _text(res)
+    assert "r = the cosine-weighted hemisphere" in text
+    if scale == 1.0:
+        assert res.passed, text
+    else:
+        assert not res.passed and text.count("off by a constant factor 1.3") == 2, text

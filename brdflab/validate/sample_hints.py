@@ -47,7 +47,8 @@ def _median_dev(ratio: np.ndarray, expect: np.ndarray) -> float:
     ok = np.isfinite(ratio) & (ratio > 0) & np.isfinite(expect) & (expect > 0)
     if ok.sum() < 10:
         return np.inf
-    return float(np.median(np.abs(ratio[ok] / expect[ok] - 1)))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return float(np.median(np.abs(ratio[ok] / expect[ok] - 1)))
 
 
 def pdf_corrections(binning: sc.Binning, column: np.ndarray, wi1: np.ndarray, wo: np.ndarray, is_bsdf: bool,

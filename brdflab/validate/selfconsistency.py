@@ -29,7 +29,9 @@ two densities of the *same* BSDF: bounded wherever both samplers follow f·cos �
 visible normals, r/p = cos θ_h cos θ_i / (G1(ω_i) |ω_i·ω_h|) ≤ ~2/G1 over the upper hemisphere), and it
 tests coverage where it matters (where the named BSDF has mass). The effective sample size
 (Σ w)²/Σ w² is reported; below 2 % of the valid samples the test declares itself blind (the file's
-method is too far from brdflab's for this test; nothing is claimed) instead of guessing.
+method is too far from brdflab's for this test; nothing is claimed) instead of guessing. Identity (1)
+holds for any known r, so :func:`rescue` repeats the test with r = cos θ/π and r = 1/(2π) on the
+hemisphere for such a sampler (cosine-weighted directions for a sharp conductor: correct, if wasteful).
 
 Bins and statistic
 ------------------
@@ -118,6 +120,8 @@ class SelfConsistency:
     theta_edges: np.ndarray = field(default=None, repr=False)
     phi_edges: np.ndarray = field(default=None, repr=False)
     fault: str | None = None
+    #: The density r that shaped the test (brdflab's pdf of the reference, or a fallback, see :func:`rescue`).
+    shape: str = "brdflab's pdf"
 
     @property
     def blind(self) -> bool:
@@ -134,7 +138,8 @@ class SelfConsistency:
         """One line: p-value, X²/dof, the mass ratio and the effective sample size."""
         if self.fault:
             return f"self-consistency: {self.fault}"
-        return (f"self-consistency p = {self.p_value:.4g} (X² = {self.statistic:.1f}, {self.dof} dof), "
+        shaped = "" if self.shape == "brdflab's pdf" else f", r = {self.shape}"
+        return (f"self-consistency p = {self.p_value:.4g} (X² = {self.statistic:.1f}, {self.dof} dof{shaped}), "
                 f"Σ r/p / N∫r = {self.mass_ratio:.4f}, effective samples {self.ess:.0f} of {self.valid}")
 
 
@@ -318,3 +323,33 @@ def self_consistency_test(wo: np.ndarray, pdf_column: np.ndarray, n_total: int,
         fault = f"blind: only {dof} populated cells"
     return SelfConsistency(stat, dof, p, threshold, ratio, ess, n_total, len(wo), obs, exp, b.theta_edges,
                            b.phi_edges, fault)
+
+
+#: Fallback shaping densities for :func:`rescue`: (name, warp, pdf), hemisphere only (BSDF reflection).
+def _fallback_shapes():
+    from brdflab.math import warps
+
+    return [("the cosine-weighted hemisphere", warps.square_to_cosine_hemisphere,
+             warps.square_to_cosine_hemisphere_pdf),
+            ("the uniform hemisphere", warps.square_to_uniform_hemisphere, warps.square_to_uniform_hemisphere_pdf)]
+
+
+def rescue(wo: np.ndarray, pdf_column: np.ndarray, n_total: int, threshold: float, rng: np.random.Generator,
+           n_pilot: int = 10_000) -> tuple[SelfConsistency, Binning] | None:
+    """The self-consistency test shaped by a simple density instead, when brdflab's pdf left it blind.
+
+    A correct sampler far from brdflab's (cosine-weighted directions for a sharp conductor: inefficient but
+    unbiased) gives weights r/p spanning orders of magnitude. Identity (1) holds for *any* known density r,
+    so the test is repeated with r = cos θ/π, then r = 1/(2π) on the hemisphere, and the first that is not
+    blind is returned (or None). The price: these r cover the whole upper hemisphere, so the sampler must
+    reach all of it (a correct sampler of a BSDF that is zero on part of the hemisphere would be rejected:
+    this is used only where brdflab's own shaping could not judge and its own sampler's chi-square fails).
+    """
+    for name, warp, pdf in _fallback_shapes():
+        pilot = warp(rng.random((n_pilot, 2)))
+        b = make_binning(wo, n_total, pdf, pilot, rng)
+        r = self_consistency_test(wo, pdf_column, n_total, pdf, pilot, threshold=threshold, binning=b)
+        r.shape = name
+        if not r.blind:
+            return r, b
+    return None
