@@ -288,3 +288,21 @@ def test_cosine_sampler_of_a_sharp_conductor(tmp_path, scale):
         assert res.passed, text
     else:
         assert not res.passed and text.count("off by a constant factor 1.3") == 2, text
+
+
+def test_forgotten_parameter_of_the_pdf_is_flagged(tmp_path):
+    """No weight column: a substrate sampled with intIOR = 1.33 is self-consistent (it passes), and the
+    output says that its pdf column fits intIOR = 1.33, not the default."""
+    b = RoughSubstrate(0.5, 0.3, intIOR=1.33)
+    rng = np.random.default_rng(1)
+    rows = []
+    for th in (0.0, 45.0):
+        wi = np.tile([np.sin(np.radians(th)), 0.0, np.cos(np.radians(th))], (6_000, 1))
+        s = b.sample(wi, rng.random((6_000, 3)))
+        ok = (s.pdf > 0) & (s.wo[:, 2] > 0)
+        rows.append(np.column_stack([wi, np.where(ok[:, None], s.wo, 0.0), np.where(ok, s.pdf, 0.0)]))
+    np.savetxt(tmp_path / "ior.txt", np.concatenate(rows), fmt="%.9g")
+    res = v.check_samples(tmp_path / "ior.txt", "roughsubstrate", alpha=0.3)
+    text = _text(res)
+    assert res.passed, text
+    assert text.count("WARNING") == 1 and "the pdf column fits intIOR = 1.33: pass --param intIOR=1.33" in text

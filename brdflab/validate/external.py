@@ -345,9 +345,10 @@ class ExternalResult:
                     tail = "that is fine" if g.weight is not None else \
                         "that is fine for a sampler of this BSDF, but without a weight column brdflab cannot tell " \
                         "it from a sampler of other parameters (write the weights to have them checked against f)"
-                    out.append(f"  a different sampling method than brdflab's (self-consistent): the directions "
-                               f"follow the pdf written beside them ({g.sc.summary()}), not {ours} ({chi_txt}); "
-                               + tail)
+                    ident = f" ({g.pdf_identity})" if g.pdf_identity else ""
+                    out.append(f"  a different sampling method than brdflab's (self-consistent){ident}: the "
+                               f"directions follow the pdf written beside them ({g.sc.summary()}), not {ours} "
+                               f"({chi_txt}); " + tail)
             elif g.sc.passed:  # the column is brdflab's pdf with a known bug; the self-consistency test missed it
                 out.append(f"  WRONG PDF COLUMN: {g.pdf_identity} (the self-consistency test alone did not see it: "
                            f"p = {g.sc.p_value:.3g})")
@@ -640,6 +641,9 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             elif g.chi2.passed:
                 p_true = ours[cmp]
             g.pdf = _column_check("pdf", fp, ours[cmp], lines[cmp], wo_n[cmp], g.pdf_identity)
+            if not g.pdf.passed and fit is not None and kind == "bsdf" and not g.pdf_bug:
+                make_p, defaults, given = fit  # a parameter of the pdf left at its default (say intIOR)
+                g.warnings = hints.fit_defaults(make_p, defaults, given, wi1, wo_n[cmp], fp, fp, column="pdf")
             if not g.pdf.passed and not g.pdf.hint and g.chi2.passed and not g.judged_by_self_consistency:
                 g.pdf.hint = "the sampled directions follow brdflab's pdf: only the pdf written with them is wrong"
         if kind == "bsdf" and s.weight is not None and cmp.any():
@@ -662,7 +666,7 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
                                      hints.weight_hint(ratio, wi1, wo_n[cmp], fix))
             if not g.weight.passed and fit is not None:
                 make_p, defaults, given = fit
-                g.warnings = hints.fit_defaults(make_p, defaults, given, wi1, wo_n[cmp], p_w, fw)
+                g.warnings = g.warnings or hints.fit_defaults(make_p, defaults, given, wi1, wo_n[cmp], p_w, fw)
                 if g.warnings and "constant" in g.weight.hint:
                     g.weight.hint = "see the warning on parameters below"
     except PluginFault as fault:

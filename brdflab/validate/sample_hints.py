@@ -34,6 +34,8 @@ from brdflab.validate import selfconsistency as sc
 #: Median relative deviation below which a candidate explains a column.
 MATCH = 1e-2
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+#: Samples used to fit a parameter left at its default (an evenly spaced subset).
+FIT_SAMPLES = 5_000
 
 
 def half_terms(wi1: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -188,8 +190,9 @@ def weight_hint(ratio: np.ndarray, wi1: np.ndarray, wo: np.ndarray, pdf_fix: np.
 
 
 def fit_defaults(make: Callable[[dict], object], defaults: dict, given: dict, wi1: np.ndarray, wo: np.ndarray,
-                 pdf_ref: np.ndarray, weights: np.ndarray) -> list[str]:
-    """Parameters left at their default that the weights fit at another value: warnings naming ``--param``.
+                 pdf_ref: np.ndarray, weights: np.ndarray, column: str = "weight") -> list[str]:
+    """Parameters left at their default that the weights (or the pdf column) fit at another value: warnings
+    naming ``--param``.
 
     Parameters
     ----------
@@ -202,23 +205,30 @@ def fit_defaults(make: Callable[[dict], object], defaults: dict, given: dict, wi
     pdf_ref
         (k,) the density the weights should divide by.
     weights
-        (k, 3) the file's weights of the same samples.
+        (k, 3) the file's weights of the same samples; with ``column="pdf"``, (k,) the file's pdf column
+        (fitted against the BSDF's pdf; ``pdf_ref`` unused).
     """
     from scipy.optimize import minimize_scalar
 
+    if len(wo) > FIT_SAMPLES:  # a median needs no more; keeps ~100 evaluations per parameter cheap
+        keep = np.linspace(0, len(wo) - 1, FIT_SAMPLES).astype(int)
+        wo, pdf_ref, weights = wo[keep], pdf_ref[keep], weights[keep]
     wi = np.ascontiguousarray(np.broadcast_to(wi1, (len(wo), 3)))
     cos_o = wo[:, 2]
 
+    pdf_fit = column == "pdf"
+
     def errs(params, ch):
         try:
-            f = make(params).eval(wi, wo)
+            with np.errstate(all="ignore"):
+                ours = make(params).pdf(wi, wo) if pdf_fit else make(params).eval(wi, wo)[:, ch] * cos_o / pdf_ref
         except Exception:  # noqa: BLE001 - an out-of-range trial value is just a bad fit
             return np.inf
-        ours = f[:, ch] * cos_o / pdf_ref
-        good = ours > 0
+        good = np.isfinite(ours) & (ours > 0)
         if good.sum() < 10:
             return np.inf
-        return float(np.median(np.abs(weights[good, ch] / ours[good] - 1)))
+        mine = weights[good] if pdf_fit else weights[good, ch]
+        return float(np.median(np.abs(mine / ours[good] - 1)))
 
     out = []
     for key, dflt in defaults.items():
@@ -235,17 +245,26 @@ def fit_defaults(make: Callable[[dict], object], defaults: dict, given: dict, wi
             def err(v, ch=ch, key=key, arr=arr):
                 return errs({**given, key: (np.full(3, v) if arr.size == 3 else v)}, ch)
 
-            if err(base) < MATCH:
+            e0 = err(base)
+            if e0 < MATCH or abs(err(base + 0.1 * (1 + abs(base))) - e0) < 1e-12:  # fits already, or no effect
                 fitted.append(None)
+                if arr.size == 1 or pdf_fit:
+                    break
                 continue
             lo, hi = (0.0, 1.0) if 0 <= base <= 1 else (base / 4, base * 4)
             grid = np.linspace(lo, hi, 41)
-            errs_g = [err(v) for v in grid]
-            i = int(np.argmin(errs_g))
-            a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-            res = minimize_scalar(err, bounds=(a, b), method="bounded", options={"xatol": 1e-6})
-            fitted.append(float(res.x) if res.fun < MATCH else np.nan)
-            if arr.size == 1:
+            errs_g = np.array([err(v) for v in grid])
+            fits = []
+            for i in np.argsort(errs_g)[:3]:  # refine the three best grid points (the error can have several basins)
+                a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+                res = minimize_scalar(err, bounds=(a, b), method="bounded", options={"xatol": 1e-6})
+                if res.fun < MATCH:
+                    fits.append((float(res.fun), float(res.x)))
+            # The best fit; among exact ones (a Fresnel term at normal incidence is the same for η and 1/η) the
+            # nearest to the default, the likelier intent.
+            exact = [x for f, x in fits if f < 1e-4]
+            fitted.append(min(exact, key=lambda x: abs(x - base)) if exact else (min(fits)[1] if fits else np.nan))
+            if arr.size == 1 or pdf_fit:
                 break
         if not fitted or any(v is not None and np.isnan(v) for v in fitted) or all(v is None for v in fitted):
             continue
@@ -253,6 +272,8 @@ def fit_defaults(make: Callable[[dict], object], defaults: dict, given: dict, wi
         shown = f"{vals[0]:.4g}" if len(vals) == 1 or np.ptp(vals) < 1e-3 else ",".join(f"{v:.4g}" for v in vals)
         dshown = f"{float(np.ravel(arr)[0]):g}" if np.ptp(np.ravel(arr)) == 0 else \
             ",".join(f"{v:g}" for v in np.ravel(arr))
-        out.append(f"WARNING: {key} was left at its default {dshown}, but the weights fit {key} = {shown}: "
+        what = "the pdf column fits" if pdf_fit else "the weights fit"
+        out.append(f"WARNING: {key} was left at its default {dshown}, but {what} {key} = {shown}: "
                    f"pass --param {key}={shown}")
+        break  # one explanation (parameters can be interchangeable: only η_int/η_ext matters to a Fresnel term)
     return out
