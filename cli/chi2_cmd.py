@@ -105,8 +105,12 @@ def run(args: argparse.Namespace) -> int:
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
-    print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES") + f"; report: {path}")
-    for f in bat.failures():
+    from brdflab.validate.failures import grouped_failures
+
+    grouped = [] if bat.passed else grouped_failures(bat)
+    print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES, {len(grouped)} distinct (one line per "
+           "cause below)") + f"; report: {path}")
+    for f in grouped:
         print("  " + f, file=sys.stderr)
     return 0 if bat.passed else 1
 
@@ -134,11 +138,21 @@ def run_samples_file(args: argparse.Namespace) -> int:
             raise BrdflabError(f"--alpha must be > 0, got {alphas[0]}")
     else:
         name, params, _, _ = bsdf_spec_from_args(args, args.against)
+    out = args.output or DEFAULT_REPORTS / f"chi2_samples_{Path(args.samples).stem}"
+    parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
+    output_folder(out)
     res = check_samples(args.samples, name, alpha=alphas[0] if alphas else None, params=params)
     print(f"{res.path}: {sum(g.n for g in res.groups)} samples in {len(res.groups)} wi group(s) against "
           f"{res.against} (chi-square threshold {res.threshold:.3g} per group)")
     for line in res.messages():
         print(line)
+    from brdflab.report.index import write_index
+    from brdflab.report.samples_report import write_samples_report
+
+    path = write_samples_report(res, out)
+    root = index_root(out, args.output is not None, parent_created)
+    if root is not None:
+        write_index(root)
     bad = [g for g in res.groups if not g.passed]
-    print("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.groups)} wi group(s) FAILED")
+    print(("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.groups)} wi group(s) FAILED") + f"; report: {path}")
     return 0 if res.passed else 1

@@ -54,7 +54,11 @@ def run(args: argparse.Namespace) -> int:
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
-    print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES") + f"; report: {path}")
-    for f in bat.failures():
+    from brdflab.validate.failures import grouped_failures
+
+    grouped = [] if bat.passed else grouped_failures(bat)
+    print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES, {len(grouped)} distinct (one line per "
+           "cause below)") + f"; report: {path}")
+    for f in grouped:
         print("  " + f, file=sys.stderr)
     return 0 if bat.passed else 1

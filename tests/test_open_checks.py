@@ -263,9 +263,14 @@ def _write(path: Path, alpha: float, n: int = 6_000, seed: int = 3, **kw) -> tup
     return path, bad
 
 
+def _o(tmp_path: Path) -> list[str]:
+    """The report folder of ``chi2 --samples`` (it writes an HTML report; not into the repository's reports/)."""
+    return ["-o", str(tmp_path / "r")]
+
+
 def test_external_beckmann_samples_pass(tmp_path, capsys):
     good, _ = _write(tmp_path / "beckmann.txt", 0.2)
-    assert main(["chi2", "--samples", str(good), "--against", "roughconductor", "--alpha", "0.2"]) == 0
+    assert main(["chi2", "--samples", str(good), "--against", "roughconductor", "--alpha", "0.2"] + _o(tmp_path)) == 0
     out = capsys.readouterr().out
     assert "2 wi group(s)" in out and "ALL PASSED" in out
     # The warp itself: microfacet normals "x y z pdf", with the independent inversion above.
@@ -275,17 +280,18 @@ def test_external_beckmann_samples_pass(tmp_path, capsys):
     s = np.sqrt(1.0 - c * c)
     h = np.stack([s * np.cos(2 * np.pi * u[:, 1]), s * np.sin(2 * np.pi * u[:, 1]), c], axis=1)
     np.savetxt(tmp_path / "h.txt", np.column_stack([h, np.exp(-tan2 / 0.04) / (np.pi * 0.04 * c**3)]), fmt="%.9g")
-    assert main(["chi2", "--samples", str(tmp_path / "h.txt"), "--against", "beckmann", "--alpha", "0.2"]) == 0
-    assert main(["chi2", "--samples", str(tmp_path / "h.txt"), "--against", "beckmann", "--alpha", "0.25"]) == 1
+    h_txt = str(tmp_path / "h.txt")
+    assert main(["chi2", "--samples", h_txt, "--against", "beckmann", "--alpha", "0.2"] + _o(tmp_path)) == 0
+    assert main(["chi2", "--samples", h_txt, "--against", "beckmann", "--alpha", "0.25"] + _o(tmp_path)) == 1
 
 
 def test_external_warp_bug_and_missing_jacobian_fail_saying_which(tmp_path, capsys):
     wrong, _ = _write(tmp_path / "bug.txt", 0.2, warp_bug=True)
-    assert main(["chi2", "--samples", str(wrong), "--against", "roughconductor", "--alpha", "0.2"]) == 1
+    assert main(["chi2", "--samples", str(wrong), "--against", "roughconductor", "--alpha", "0.2"] + _o(tmp_path)) == 1
     out = capsys.readouterr().out
     assert "WRONG DISTRIBUTION" in out
     _, nojac = _write(tmp_path / "ok.txt", 0.2)
-    assert main(["chi2", "--samples", str(nojac), "--against", "roughconductor", "--alpha", "0.2"]) == 1
+    assert main(["chi2", "--samples", str(nojac), "--against", "roughconductor", "--alpha", "0.2"] + _o(tmp_path)) == 1
     out = capsys.readouterr().out
     assert "WRONG PDF COLUMN" in out and "lacks the 1/(4|ωo·ωh|) Jacobian" in out and "WRONG DISTRIBUTION" not in out
     assert f"{nojac}:" in out  # the worst sample is located by file:line

@@ -144,7 +144,10 @@ def view_of(result: c2.Chi2Result, n: int = 100_000, seed: int = 0) -> View | No
         if obs is None or result.theta_edges is None or obs.shape[0] != obs.shape[1]:
             return None
         return plane_view(result, s, seed)
-    return direction_view(s, n, seed)
+    try:
+        return direction_view(s, n, seed)
+    except Exception:  # noqa: BLE001 - a plugin that raises already has its verdict; its page just has no view
+        return None
 
 
 def verdict(result: c2.Chi2Result, negative: bool) -> tuple[str, str]:

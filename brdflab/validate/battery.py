@@ -518,9 +518,9 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         progress(f"{'PASS' if all(p.passed for p in bat.albedo) else 'FAIL'}  furnace: {len(bat.albedo)} albedo "
                  f"points, max ρ {max(p.quadrature for p in finite):.4f}, min ρ {worst.quadrature:.4f} "
                  f"({worst.name}, α={worst.alpha}, θ={worst.theta:g})")
-        for p in bat.albedo:
-            if not p.passed:
-                progress(p.message)
+        bad = [p for p in bat.albedo if not p.passed]
+        if bad:  # the points themselves are listed once, grouped, by brdflab.validate.failures
+            progress(f"      {len(bad)} failing albedo points (first: {bad[0].message})")
     bat.stability = stability.run() if bsdfs is None else stability.run(bsdfs=_stability_materials(entries, params))
     if progress:
         bad = [r for r in bat.stability if not r.passed]

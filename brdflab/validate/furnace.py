@@ -91,7 +91,8 @@ class AlbedoPoint:
 
     def summary(self) -> str:
         """One line with both estimates, their uncertainties and the verdict."""
-        head = f"{'PASS' if self.passed else 'FAIL'} furnace {self.name} θ_i={self.theta:g}°"
+        a = f" α={self.alpha:g}" if isinstance(self.alpha, float | int) and f"α={self.alpha:g}" not in self.name else ""
+        head = f"{'PASS' if self.passed else 'FAIL'} furnace {self.name}{a} θ_i={self.theta:g}°"
         if self.fault:
             return f"{head}: {self.fault}"
         s = (f"{head}: ρ quadrature {self.quadrature:.5f} ± {self.quad_error:.1e}, Monte Carlo "
