@@ -5,7 +5,7 @@
   in every glossy reflection of the zenith (seen in ``plot`` and ``explore``). The sky is now 1024 rows tall.
 * **The ceiling seams of the course reference** ``assignment-2/references/cbox_ems.exr``: ``check`` flags the
   back wall just below the light's plane, where the reference is darker. That is the student's shadow test
-  (occluded if t ≤ d, §12.3) counting the light's own surface at grazing angles — reproduced below by brdflab
+  (occluded if t ≤ d, §13.2) counting the light's own surface at grazing angles — reproduced below by brdflab
   with that very test, while brdflab's own test agrees with Mitsuba 3 (docs/benchmarks.md has the numbers).
 """
 
