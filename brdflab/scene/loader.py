@@ -131,7 +131,9 @@ def _positive_int(name: str, value: object, minimum: int = 1) -> int:
 def load_scene(path: str | Path, integrator_override: str | None = None, *, integrator: str | None = None,
                spp: int | None = None, seed: int | None = None, width: int | None = None,
                height: int | None = None, emitter_selection: str | None = None) -> Scene:
-    """Parse and assemble a Nori scene file.
+    """Parse and assemble a Nori scene file, in named steps: sort the scene's children, build the integrator,
+    the camera and filter, the sampler settings, the scene-level emitters, the meshes with their materials and
+    area emitters, the Embree geometry, then attach the area emitters.
 
     Parameters
     ----------
@@ -152,10 +154,10 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         For every invalid or missing input, with file and line.
     """
     t_start = time.perf_counter()
-    integrator_override = integrator or integrator_override
     path = Path(path)
     root = parse_scene_file(path)
     inputs = [path]
+    scene_dir = path.parent
 
     def resolve(name: str) -> Path | None:
         found = resolve_path(scene_dir, name)
@@ -163,25 +165,58 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
             inputs.append(found)
         return found
 
+    override = integrator or integrator_override
+    specs = _sort_children(root, path, override)
+    itype = override or specs.integrator.type
+    integrator_obj = _build_integrator(specs.integrator, itype)
+    camera, filt = _build_camera(specs.camera, width, height)
+    spp, seed = _read_sampler(specs.sampler, spp, seed)
+    emitters, environment = _build_scene_emitters(specs.emitters, resolve)
+    bsdfs, meshes, area_emitters, obj_seconds = _load_meshes(specs.meshes, resolve, scene_dir)
+    t0 = time.perf_counter()
+    geometry = Geometry([m.mesh for m in meshes])
+    geometry_seconds = time.perf_counter() - t0
+    _attach_area_emitters(geometry, meshes, area_emitters, emitters)
+
+    scene = Scene(path, camera, filt, integrator_obj, itype, spp, seed, bsdfs, emitters, meshes, geometry,
+                  environment, inputs=inputs)
+    scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
+    scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
+    scene.set_emitter_selection(emitter_selection or "uniform")
+    scene.source_digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    _warn_if_black(path, emitters, integrator_obj, itype)
+    scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
+                     "total": time.perf_counter() - t_start}
+    return scene
+
+
+@dataclass
+class _Specs:
+    """The scene's top-level objects, sorted by kind (XML order kept within a kind)."""
+
+    camera: ObjectSpec
+    integrator: ObjectSpec
+    sampler: ObjectSpec | None
+    emitters: list[ObjectSpec]
+    meshes: list[ObjectSpec]
+
+
+def _sort_children(root: ObjectSpec, path: Path, integrator_override: str | None) -> _Specs:
+    """Step 1: check the children of ``<scene>`` (one camera, integrator, sampler, environment; known tags
+    and types) and sort them."""
     root.props.check_known({})
-    scene_dir = path.parent
-    camera_spec = integrator_spec = sampler_spec = None
-    env_specs: list[ObjectSpec] = []
+    single: dict[str, ObjectSpec | None] = {"camera": None, "integrator": None, "sampler": None}
+    env_seen = False
     scene_emitters: list[ObjectSpec] = []
     mesh_specs: list[ObjectSpec] = []
     for child in root.children:
-        if child.tag in ("camera", "integrator", "sampler"):
-            prev = {"camera": camera_spec, "integrator": integrator_spec, "sampler": sampler_spec}[child.tag]
+        if child.tag in single:
+            prev = single[child.tag]
             if prev is not None:
                 raise child.error(f"a scene can have only one <{child.tag}> (the first is at line {prev.line})")
-            if child.tag == "camera":
-                camera_spec = child
-            elif child.tag == "integrator":
-                integrator_spec = child
-                if integrator_override is None:
-                    plugin_class("integrator", child.type, child)
-            else:
-                sampler_spec = child
+            single[child.tag] = child
+            if child.tag == "integrator" and integrator_override is None:
+                plugin_class("integrator", child.type, child)
         elif child.tag == "mesh":
             mesh_specs.append(child)
         elif child.tag == "emitter":
@@ -189,64 +224,72 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
                 raise child.error('an <emitter type="area"> must be placed inside a <mesh>')
             plugin_class("emitter", child.type, child)
             if child.type == "environment":
-                if env_specs:
+                if env_seen:
                     raise child.error("a scene can have only one environment emitter")
-                env_specs.append(child)
+                env_seen = True
             scene_emitters.append(child)
         else:
             raise child.error(f"<scene> cannot contain <{child.tag}>; valid children: <mesh>, <emitter>, "
                               "<sampler>, <camera>, <integrator>")
-    if integrator_spec is None:
+    if single["integrator"] is None:
         raise SceneError("no <integrator> was specified", path)
-    if camera_spec is None:
+    if single["camera"] is None:
         raise SceneError("no <camera> was specified", path)
+    return _Specs(single["camera"], single["integrator"], single["sampler"], scene_emitters, mesh_specs)
 
-    # Integrator.
-    itype = integrator_override or integrator_spec.type
-    icls = plugin_class("integrator", itype, integrator_spec)
-    _no_children(integrator_spec)
-    integrator = icls.from_properties(integrator_spec.props)
 
-    # Camera and filter.
-    if camera_spec.type != "perspective":
-        raise camera_spec.error(f'unknown camera type "{clean(camera_spec.type)}"; valid types: perspective')
+def _build_integrator(spec: ObjectSpec, itype: str):
+    """Step 2: the integrator (the override's type, or the scene's)."""
+    icls = plugin_class("integrator", itype, spec)
+    _no_children(spec)
+    return icls.from_properties(spec.props)
+
+
+def _build_camera(spec: ObjectSpec, width: int | None, height: int | None) -> tuple[Camera, Filter]:
+    """Step 3: the perspective camera (size overrides applied) and its reconstruction filter."""
+    if spec.type != "perspective":
+        raise spec.error(f'unknown camera type "{clean(spec.type)}"; valid types: perspective')
     for key, value in (("width", width), ("height", height)):
         if value is not None:
-            camera_spec.props.set(key, "integer", _positive_int(key, value))
-    camera = Camera.from_properties(camera_spec.props)
+            spec.props.set(key, "integer", _positive_int(key, value))
+    camera = Camera.from_properties(spec.props)
     filt = Filter()
-    for c in camera_spec.children:
+    for c in spec.children:
         if c.tag != "rfilter":
             raise c.error(f"<camera> cannot contain <{c.tag}>; it accepts one <rfilter>")
         if c.type not in Filter.KNOWN:
             raise c.error(f'unknown rfilter type "{clean(c.type)}"; valid types: {", ".join(Filter.KNOWN)}')
-        if len([x for x in camera_spec.children if x.tag == "rfilter"]) > 1:
+        if len([x for x in spec.children if x.tag == "rfilter"]) > 1:
             raise c.error("<camera> accepts only one <rfilter>")
         _no_children(c)
         filt = Filter.from_properties(c.type, c.props)
+    return camera, filt
 
-    # Sampler.
-    spp_override, seed_override = spp, seed
+
+def _read_sampler(spec: ObjectSpec | None, spp_override: int | None, seed_override: int | None) -> tuple[int, int]:
+    """Step 4: samples per pixel and seed (the ``independent`` sampler's, then the overrides)."""
     spp, seed = 1, 0
-    if sampler_spec is not None:
-        if sampler_spec.type != "independent":
-            raise sampler_spec.error(f'unknown sampler type "{clean(sampler_spec.type)}"; valid types: independent')
-        _no_children(sampler_spec)
-        sampler_spec.props.check_known({"sampleCount": "integer", "seed": "integer"})
-        spp = sampler_spec.props.get_int("sampleCount", 1)
-        seed = sampler_spec.props.get_int("seed", 0)
+    if spec is not None:
+        if spec.type != "independent":
+            raise spec.error(f'unknown sampler type "{clean(spec.type)}"; valid types: independent')
+        _no_children(spec)
+        spec.props.check_known({"sampleCount": "integer", "seed": "integer"})
+        spp = spec.props.get_int("sampleCount", 1)
+        seed = spec.props.get_int("seed", 0)
         if spp < 1:
-            raise sampler_spec.props.error("sampleCount", f"'sampleCount' must be at least 1, got {spp}")
-
+            raise spec.props.error("sampleCount", f"'sampleCount' must be at least 1, got {spp}")
     if spp_override is not None:
         spp = _positive_int("spp", spp_override)
     if seed_override is not None:
         seed = _positive_int("seed", seed_override, minimum=0)
+    return spp, seed
 
-    # Scene-level emitters (XML order).
+
+def _build_scene_emitters(specs: list[ObjectSpec], resolve) -> tuple[list[Emitter], Emitter | None]:
+    """Step 5: the emitters outside meshes (point lights, the environment), in XML order."""
     emitters: list[Emitter] = []
     environment = None
-    for spec in scene_emitters:
+    for spec in specs:
         cls = plugin_class("emitter", spec.type, spec)
         _no_children(spec)
         if spec.type == "environment":
@@ -255,13 +298,49 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         else:
             em = cls.from_properties(spec.props)
         emitters.append(em)
+    return emitters, environment
 
-    # Meshes, their BSDFs and area emitters.
+
+def _mesh_children(spec: ObjectSpec) -> tuple[ObjectSpec | None, ObjectSpec | None]:
+    """A mesh's ``<bsdf>`` and area ``<emitter>`` (at most one each)."""
+    bsdf_spec = em_spec = None
+    for c in spec.children:
+        if c.tag == "bsdf":
+            if bsdf_spec is not None:
+                raise c.error("a <mesh> can have only one <bsdf>")
+            bsdf_spec = c
+        elif c.tag == "emitter":
+            if em_spec is not None:
+                raise c.error("a <mesh> can have only one <emitter>")
+            if c.type != "area":
+                raise c.error(f'<emitter type="{clean(c.type)}"> cannot be placed inside a <mesh>; only "area" can')
+            em_spec = c
+        else:
+            raise c.error(f"<mesh> cannot contain <{c.tag}>; it accepts one <bsdf> and one <emitter>")
+    return bsdf_spec, em_spec
+
+
+def _mesh_bsdf(bsdf_spec: ObjectSpec | None) -> BSDF:
+    """A mesh's material: the default diffuse, a built-in, or a user's BSDF checked on every call."""
+    if bsdf_spec is None:
+        return plugin_class("bsdf", "diffuse")(np.full(3, 0.5))
+    bsdf = build_bsdf(plugin_class("bsdf", bsdf_spec.type, bsdf_spec), bsdf_spec.props)
+    _attach_textures(bsdf, bsdf_spec)
+    if not is_builtin(bsdf_spec.type):  # a user's BSDF: its results are checked on every call
+        from brdflab.validate.guard import SceneCheckedBSDF
+
+        bsdf = SceneCheckedBSDF(bsdf, bsdf_spec.file, bsdf_spec.line)
+    return bsdf
+
+
+def _load_meshes(specs: list[ObjectSpec], resolve, scene_dir: Path):
+    """Step 6: every mesh's OBJ file, material and area emitter: (bsdfs, mesh instances, (mesh index,
+    emitter, spec) of the area emitters, seconds spent parsing OBJ)."""
     bsdfs: list[BSDF] = []
     meshes: list[MeshInstance] = []
     area_emitters: list[tuple[int, Emitter, ObjectSpec]] = []
     obj_seconds = 0.0
-    for spec in mesh_specs:
+    for spec in specs:
         if spec.type != "obj":
             raise spec.error(f'unknown mesh type "{clean(spec.type)}"; valid types: obj')
         spec.props.check_known({"filename": "string", "toWorld": "transform"})
@@ -274,39 +353,18 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         t0 = time.perf_counter()
         mesh = load_obj(fpath, to_world)
         obj_seconds += time.perf_counter() - t0
-        bsdf_spec = em_spec = None
-        for c in spec.children:
-            if c.tag == "bsdf":
-                if bsdf_spec is not None:
-                    raise c.error("a <mesh> can have only one <bsdf>")
-                bsdf_spec = c
-            elif c.tag == "emitter":
-                if em_spec is not None:
-                    raise c.error("a <mesh> can have only one <emitter>")
-                if c.type != "area":
-                    raise c.error(f'<emitter type="{clean(c.type)}"> cannot be placed inside a <mesh>; only "area" can')
-                em_spec = c
-            else:
-                raise c.error(f"<mesh> cannot contain <{c.tag}>; it accepts one <bsdf> and one <emitter>")
-        if bsdf_spec is None:
-            bsdf = plugin_class("bsdf", "diffuse")(np.full(3, 0.5))
-        else:
-            bsdf = build_bsdf(plugin_class("bsdf", bsdf_spec.type, bsdf_spec), bsdf_spec.props)
-            _attach_textures(bsdf, bsdf_spec)
-            if not is_builtin(bsdf_spec.type):  # a user's BSDF: its results are checked on every call
-                from brdflab.validate.guard import SceneCheckedBSDF
-
-                bsdf = SceneCheckedBSDF(bsdf, bsdf_spec.file, bsdf_spec.line)
-        bsdfs.append(bsdf)
+        bsdf_spec, em_spec = _mesh_children(spec)
+        bsdfs.append(_mesh_bsdf(bsdf_spec))
         meshes.append(MeshInstance(mesh, len(bsdfs) - 1))
         if em_spec is not None:
             em = plugin_class("emitter", "area", em_spec).from_properties(em_spec.props)
             _attach_textures(em, em_spec)
             area_emitters.append((len(meshes) - 1, em, em_spec))
+    return bsdfs, meshes, area_emitters, obj_seconds
 
-    t0 = time.perf_counter()
-    geometry = Geometry([m.mesh for m in meshes])
-    geometry_seconds = time.perf_counter() - t0
+
+def _attach_area_emitters(geometry: Geometry, meshes: list[MeshInstance], area_emitters, emitters: list) -> None:
+    """Step 7: area emitters onto their meshes in the built geometry (appended after the scene-level ones)."""
     for mesh_index, em, spec in area_emitters:
         em.attach(geometry, mesh_index)
         if not em.area > 0:
@@ -316,17 +374,11 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
         meshes[mesh_index].emitter = len(emitters)
         emitters.append(em)
 
-    scene = Scene(path, camera, filt, integrator, itype, spp, seed, bsdfs, emitters, meshes, geometry,
-                  environment, inputs=inputs)
-    scene.mesh_bsdf = np.array([m.bsdf for m in meshes], dtype=np.int64)
-    scene.mesh_emitter = np.array([m.emitter for m in meshes], dtype=np.int64)
-    scene.set_emitter_selection(emitter_selection or "uniform")
-    scene.source_digest = hashlib.sha256(path.read_bytes()).hexdigest()
+
+def _warn_if_black(path: Path, emitters: list, integrator, itype: str) -> None:
+    """Warn about scenes that can only render black."""
     if not emitters and getattr(integrator, "needs_emitters", False):
-        warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=2)
+        warnings.warn(f"{path}: the scene has no emitter; the image will be black", stacklevel=3)
     elif emitters and itype == "direct_mats" and all(e.is_delta for e in emitters):
         warnings.warn(f"{path}: direct_mats samples the BSDF and can never hit point lights, the only emitters "
-                      "of this scene; the image will be black (use direct_ems or direct_mis)", stacklevel=2)
-    scene.timings = {"obj": obj_seconds, "geometry": geometry_seconds, "bvh": geometry.bvh_seconds,
-                     "total": time.perf_counter() - t_start}
-    return scene
+                      "of this scene; the image will be black (use direct_ems or direct_mis)", stacklevel=3)
