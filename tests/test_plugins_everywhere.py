@@ -137,3 +137,13 @@ def test_bench_runs_a_users_scene_with_its_plugin(tmp_path):
     rec = json.loads((tmp_path / "b.json").read_text())["results"]
     assert len(rec) == 1 and rec[0]["integrator"] == "direct_ems" and rec[0]["width"] == 16
     assert np.isfinite(rec[0]["median"]["whole_seconds"])
+
+
+def test_report_takes_a_plugin(tmp_path, capsys, cleanup):
+    scene = _scene(tmp_path, '<bsdf type="uniform_lambert"/>', 16, 12)
+    args = ["report", str(scene), "--integrators", "direct_ems,direct_mats", "--spp", "2", "--runs", "2",
+            "--ref-spp", "4", "--resolution", "16x12", "--workers", "1", "--no-flip", "--no-mis-weights",
+            "-o", str(tmp_path / "r")]
+    assert main(args) == 2 and "--plugin" in capsys.readouterr().err
+    assert main([*args, "--plugin", str(PLUGIN)]) == 0
+    assert (tmp_path / "r" / "report.html").exists()
