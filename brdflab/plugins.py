@@ -162,7 +162,8 @@ def load_plugin(spec: str | Path, base: str | Path | None = None) -> list[str]:
         (likewise, from an importable module) or ``package.module:Class`` (that class only).
     base
         The folder relative paths and modules are resolved from first — a scene's own folder for the types a
-        scene names (``<bsdf type="my_bsdfs.py:Phong">`` beside the scene); the working directory otherwise.
+        scene names (``<bsdf type="my_bsdfs.py:Phong">`` beside the scene); the working directory otherwise
+        (also for ``--bsdf package.module:Class``, as ``python -m`` would find it).
 
     Returns
     -------
@@ -226,7 +227,8 @@ def _load_file(path: Path, clsname: str, text: str) -> list[str]:
 def _load_module(modname: str, clsname: str, text: str, base: str | Path | None) -> list[str]:
     from brdflab.bsdf.base import BSDF
 
-    added = base is not None and str(base) not in sys.path
+    base = Path.cwd() if base is None else base  # as `python -m` would: the working directory first
+    added = str(base) not in sys.path
     if added:
         sys.path.insert(0, str(base))
     try:
@@ -250,7 +252,7 @@ def _load_module(modname: str, clsname: str, text: str, base: str | Path | None)
                    and c.type_name]
     spec = text
     file = getattr(module, "__file__", None)
-    if base is not None and file and Path(file).resolve().is_relative_to(Path(base).resolve()):
+    if file and Path(file).resolve().is_relative_to(Path(base).resolve()):
         spec = f"{Path(file).resolve()}" + (f":{clsname}" if clsname else "")  # workers load it by path
     return _register_loaded(classes, spec, text)
 
