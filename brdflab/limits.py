@@ -9,6 +9,8 @@ variable                       default                             what it bound
 ``BRDFLAB_MAX_INPUT_MB``       2048 (2 GiB)                        size of any input file (scene, OBJ, EXR)
 ``BRDFLAB_MEMORY_LIMIT_GB``    half of the physical memory         estimated memory of the film, the
                                (at most 16)                        environment map tables and the workers
+``BRDFLAB_MAX_HOURS``          24                                  estimated least duration of a run without
+                                                                   a time limit (:func:`check_work`)
 =============================  ==================================  ===========================================
 
 :func:`read_input` is the one way brdflab opens a user's file for reading: it refuses what is not a
@@ -17,7 +19,8 @@ says which kind of file it is, and it refuses files above the size limit before 
 sparse file). :func:`check_input` does the same checks for readers that open the path themselves
 (OpenEXR). :func:`check_memory` compares an estimate with the memory limit and raises
 :class:`~brdflab.errors.ResourceError` ("would need 3.0 GiB for …") instead of letting an allocation end
-in ``MemoryError`` or the kernel's OOM killer.
+in ``MemoryError`` or the kernel's OOM killer. :func:`check_work` does the same for time: a render of
+2^40 spp is refused before it starts ("would take at least 27 years"), unless a time limit bounds it.
 """
 
 from __future__ import annotations
@@ -32,6 +35,13 @@ from brdflab.errors import BrdflabError, ResourceError, clean
 INPUT_ENV = "BRDFLAB_MAX_INPUT_MB"
 MEMORY_ENV = "BRDFLAB_MEMORY_LIMIT_GB"
 DEFAULT_INPUT_MB = 2048
+WORK_ENV = "BRDFLAB_MAX_HOURS"
+DEFAULT_MAX_HOURS = 24.0
+#: Samples per second per worker assumed by :func:`check_work`: about 4× the fastest rate brdflab has been
+#: measured at (2.5 M samples/s on an idle core, README "Benchmarks"), so an estimate is a lower bound.
+OPTIMISTIC_RATE = 10e6
+#: Sample counts are 64-bit: samples per pixel (and seeds of passes) beyond this cannot be counted.
+MAX_SPP = 2**63 - 1
 #: Resident memory a forked render worker needs besides what it shares with the parent (its batch
 #: temporaries and interpreter pages that copy-on-write duplicates), used by the worker estimate.
 WORKER_BYTES = 96 * 2**20
@@ -82,6 +92,44 @@ def check_memory(nbytes: float, what: str) -> None:
     if nbytes > limit:
         raise ResourceError(f"would need {gib(nbytes)} for {what}, more than the memory limit of {gib(limit)} "
                             f"(raise it with {MEMORY_ENV}=<GiB>)")
+
+
+def duration(seconds: float) -> str:
+    """``"3.2 hours"``, ``"27 years"``: a rough duration for messages."""
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600), ("minutes", 60)):
+        if seconds >= size:
+            n = seconds / size
+            return f"{n:.3g} {unit}" if n < 1000 else (f"{n:,.0f} {unit}" if n < 1e9 else f"{n:.1e} {unit}")
+    return f"{seconds:.0f} seconds"
+
+
+def check_spp(spp: object, what: str = "spp") -> int:
+    """``spp`` as an int in [1, 2^63): anything else (a float, 10**30, a negative count) is a
+    :class:`BrdflabError`."""
+    import numbers
+
+    if isinstance(spp, bool) or not isinstance(spp, numbers.Integral):
+        raise BrdflabError(f"{what} must be an integer, got {clean(repr(spp), 30)}")
+    spp = int(spp)
+    if not 1 <= spp <= MAX_SPP:
+        raise BrdflabError(f"{what} must be between 1 and 2^63 − 1, got {clean(spp, 30)}")
+    return spp
+
+
+def check_work(samples: float, workers: int, what: str, time_limit: float | None = None) -> None:
+    """Raise :class:`ResourceError` when ``samples`` (camera samples, BSDF evaluations …) on ``workers``
+    would take longer than ``BRDFLAB_MAX_HOURS`` even at :data:`OPTIMISTIC_RATE`, before the work starts.
+
+    A ``time_limit`` bounds the run, so nothing is refused then.
+    """
+    if time_limit is not None:
+        return
+    seconds = float(samples) / (OPTIMISTIC_RATE * max(int(workers), 1))
+    limit = _env_number(WORK_ENV, DEFAULT_MAX_HOURS) * 3600
+    if seconds > limit:
+        raise ResourceError(f"{what} would take at least {duration(seconds)} ({float(samples):.3g} samples at "
+                            f"{OPTIMISTIC_RATE / 1e6:.0f} M/s per worker); lower the sample count, pass a time "
+                            f"limit (--time-limit), or raise {WORK_ENV}=<hours>")
 
 
 def check_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> int:

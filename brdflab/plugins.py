@@ -54,6 +54,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import inspect
+import os
 import sys
 from collections.abc import Iterable
 from difflib import get_close_matches
@@ -174,9 +175,10 @@ def load_plugin(spec: str | Path) -> list[str]:
 
     text = str(spec)
     path = Path(text)
-    if text.endswith(".py") or path.is_file():
-        if not path.is_file():
-            raise BrdflabError(f"plugin file '{_short(text)}' not found")
+    if text.endswith(".py") or os.sep in text or path.exists():
+        from brdflab.limits import check_input
+
+        check_input(path, "plugin file")  # not found, a directory, a FIFO, a device: said as such
         modname = f"brdflab_plugin_{abs(hash(str(path.resolve()))):x}"
         if modname in sys.modules:
             module = sys.modules[modname]
@@ -186,7 +188,7 @@ def load_plugin(spec: str | Path) -> list[str]:
                 module = importlib.util.module_from_spec(mspec)
                 sys.modules[modname] = module
                 mspec.loader.exec_module(module)
-            except Exception as exc:
+            except (Exception, SystemExit) as exc:  # even sys.exit() at import is the plugin's failure
                 sys.modules.pop(modname, None)
                 raise BrdflabError(f"{path}: the plugin failed to import: {_first_line(exc)}") from exc
         classes = [c for c in vars(module).values()
@@ -196,7 +198,7 @@ def load_plugin(spec: str | Path) -> list[str]:
         modname, _, clsname = text.partition(":")
         try:
             module = importlib.import_module(modname)
-        except Exception as exc:
+        except (Exception, SystemExit) as exc:
             raise BrdflabError(f"plugin '{_short(text)}': cannot import module '{_short(modname)}': "
                                f"{_first_line(exc)}") from exc
         if clsname:

@@ -8,7 +8,11 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.imageio import _atomic_write, write_exr, write_png
+from brdflab.outputs import write_text
 from brdflab.report import page as html
+
+#: The files :func:`write_check` writes into its folder (checked by :func:`brdflab.outputs.prepare_folder`).
+CHECK_FILES = ("check.json", "user.png", "brdflab.png", "brdflab.exr", "block_map.png", "z_map.png", "check.html")
 
 
 def write_block_map(path: Path, user: np.ndarray, result, title: str = "") -> None:
@@ -65,7 +69,7 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
     out.mkdir(parents=True, exist_ok=True)
     d = result.to_dict()
     d.update({"scene": str(scene), "renders": [str(p) for p in user_paths]})
-    (out / "check.json").write_text(json.dumps(d, indent=2, default=float))
+    write_text(out / "check.json", json.dumps(d, indent=2, default=float))
     mean_user = np.mean(np.stack(user), axis=0)
     write_png(out / "user.png", mean_user)
     write_png(out / "brdflab.png", result.estimate)
@@ -107,5 +111,5 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
         "the block tests share α/2 by Holm's step-down procedure and the whole-image mean test gets α/2, so the "
         "chance of calling an unbiased render biased is at most α. See brdflab/stats/check.py."))
     path = out / "check.html"
-    path.write_text(html.page(f"brdflab check — {scene.name}", body))
+    write_text(path, html.page(f"brdflab check — {scene.name}", body))
     return path
