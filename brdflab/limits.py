@@ -40,6 +40,11 @@ DEFAULT_MAX_HOURS = 24.0
 #: Samples per second per worker assumed by :func:`check_work`: about 4× the fastest rate brdflab has been
 #: measured at (2.5 M samples/s on an idle core, README "Benchmarks"), so an estimate is a lower bound.
 OPTIMISTIC_RATE = 10e6
+#: Smallest roughness α the validators and views accept: below it the microfacet D = 1/(π α²) … and its
+#: quadrature lose float64 precision (measured: brdflab's own correct roughconductor fails the chi-square
+#: test at α = 10⁻⁸, and one albedo quadrature takes 10 s at 10⁻⁷ against 0.2 s at 10⁻⁶); such a
+#: surface is a mirror at every resolution brdflab draws.
+MIN_ALPHA = 1e-6
 #: Sample counts are 64-bit: samples per pixel (and seeds of passes) beyond this cannot be counted.
 MAX_SPP = 2**63 - 1
 #: Resident memory a forked render worker needs besides what it shares with the parent (its batch
@@ -101,6 +106,22 @@ def duration(seconds: float) -> str:
             n = seconds / size
             return f"{n:.3g} {unit}" if n < 1000 else (f"{n:,.0f} {unit}" if n < 1e9 else f"{n:.1e} {unit}")
     return f"{seconds:.0f} seconds"
+
+
+def max_local_workers() -> int:
+    """Most workers of a ``local:N`` Dask cluster: 4 per core (``BRDFLAB_MAX_LOCAL_WORKERS`` overrides)."""
+    return int(_env_number("BRDFLAB_MAX_LOCAL_WORKERS", 4 * (os.cpu_count() or 1)))
+
+
+def check_alpha(alpha: object, what: str = "alpha") -> None:
+    """Raise :class:`BrdflabError` unless ``alpha`` is a finite roughness ≥ :data:`MIN_ALPHA`."""
+    try:
+        a = float(alpha)
+    except (TypeError, ValueError):
+        raise BrdflabError(f"{what} must be a number, got {clean(alpha, 30)}") from None
+    if not (a >= MIN_ALPHA and a < float("inf")):
+        raise BrdflabError(f"{what} must be a finite roughness ≥ {MIN_ALPHA:g} (below, the microfacet "
+                           f"formulas lose float64 precision and the surface is a mirror), got {clean(alpha, 30)}")
 
 
 def check_spp(spp: object, what: str = "spp") -> int:

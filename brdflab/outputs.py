@@ -173,6 +173,18 @@ def prepare_folder(folder: str | Path, names: list[str], inputs: list[str | Path
     return created
 
 
+def prepare_files(paths: list[str | Path], inputs: list[str | Path] = (), force: bool = False,
+                  option: str = "-o") -> None:
+    """:func:`prepare_folder` for single output files (a render's EXR + PNG, a heatmap): none is an input
+    or a folder, none replaces a file brdflab did not write (unless ``force``), their folders are writable."""
+    paths = [Path(p) for p in paths]
+    check_outputs(paths, list(inputs))
+    check_replaceable(paths, force)
+    for folder in dict.fromkeys(p.parent for p in paths):
+        output_folder(folder, option)
+        check_writable(folder, option)
+
+
 def record_outputs(folder: str | Path, names: list[str]) -> None:
     """Add ``names`` to ``folder``'s :data:`MANIFEST` (best effort: a failure only loses the record)."""
     folder = Path(folder)
@@ -198,3 +210,27 @@ def write_text(path: str | Path, text: str) -> None:
 
     data = text.encode("utf-8", "surrogateescape")
     write_files([(path, lambda tmp: Path(tmp).write_bytes(data))])
+
+
+def json_text(obj: object, **kwargs) -> str:
+    """``obj`` as strict JSON: NaN and ±infinity (an undefined metric, an empty p-value) become ``null``,
+    NumPy scalars and arrays plain numbers and lists, so every JSON brdflab prints or writes parses."""
+    import json
+    import math
+
+    import numpy as np
+
+    def plain(v):
+        if isinstance(v, dict):
+            return {str(k): plain(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [plain(x) for x in v]
+        if isinstance(v, np.ndarray):
+            return plain(v.tolist())
+        if isinstance(v, np.generic):
+            v = v.item()
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        return v
+
+    return json.dumps(plain(obj), allow_nan=False, default=str, **kwargs)

@@ -179,6 +179,7 @@ def figure(result: c2.Chi2Result, view: View, negative: bool = False):
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
@@ -261,6 +262,7 @@ def thumbnail_png(result: c2.Chi2Result, scale: int = 4) -> bytes:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.image
 
     obs, exp = result.observed, result.expected

@@ -30,6 +30,7 @@ def _albedo_plot(bat: Battery, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     names = sorted({p.name for p in bat.albedo})

@@ -638,6 +638,7 @@ def plot_curves(study: Study, out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     paths = []
@@ -682,6 +683,7 @@ def plot_error_maps(study: Study, out: Path) -> dict[str, Path]:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
