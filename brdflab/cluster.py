@@ -134,8 +134,8 @@ def parse_address(text: str) -> tuple[str, int | str]:
     else:
         scheme, sep, rest = t.rpartition("://")
         if (sep and scheme not in _SCHEMES) or (sep and "://" in scheme):
-            raise BrdflabError(f"cluster address '{shown}': brdflab connects only to tcp://HOST:PORT (other Dask "
-                               "transports need a configuration brdflab does not pass)")
+            raise BrdflabError(f"cluster address: expected tcp://HOST:PORT, got '{shown}' (brdflab connects only "
+                               "over tcp: other Dask transports need a configuration it does not pass)")
         m = re.fullmatch(r"([A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):([0-9]{1,5})", rest)
         if m and 1 <= int(m.group(2)) <= 65535:
             return "remote", "tcp://" + rest

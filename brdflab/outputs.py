@@ -162,11 +162,13 @@ def prepare_folder(folder: str | Path, names: list[str], inputs: list[str | Path
 
     One check for every command that writes into a folder: the folder is not a file, none of the outputs
     is an input of the run (even with ``force``) or an existing folder, none replaces a file brdflab did
-    not write (unless ``force``), and the folder can be written to.
+    not write (unless ``force``), and the folder can be written to. A name may be a glob pattern
+    (``chi2_view_*.png``) for outputs whose number is known only after the run: every existing file it
+    matches is checked.
     """
     folder = Path(folder)
     created = output_folder(folder, option)
-    outs = [folder / n for n in names]
+    outs = _expand(folder, names)
     check_outputs(outs, list(inputs))
     check_replaceable(outs, force)
     check_writable(folder, option)
@@ -185,9 +187,22 @@ def prepare_files(paths: list[str | Path], inputs: list[str | Path] = (), force:
         check_writable(folder, option)
 
 
+def _expand(folder: Path, names: list[str]) -> list[Path]:
+    """``folder / name`` for every name; a glob pattern gives the existing files it matches."""
+    out: list[Path] = []
+    for n in names:
+        if any(c in n for c in "*?["):
+            out += sorted(folder.glob(n)) if folder.is_dir() else []
+        else:
+            out.append(folder / n)
+    return out
+
+
 def record_outputs(folder: str | Path, names: list[str]) -> None:
-    """Add ``names`` to ``folder``'s :data:`MANIFEST` (best effort: a failure only loses the record)."""
+    """Add ``names`` (glob patterns: the files they match now) to ``folder``'s :data:`MANIFEST` (best
+    effort: a failure only loses the record)."""
     folder = Path(folder)
+    names = [p.name for p in _expand(folder, names) if p.exists()]
     try:
         with open(folder / MANIFEST, encoding="utf-8", errors="surrogateescape") as f:
             known = f.read(1 << 20).splitlines()

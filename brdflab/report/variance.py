@@ -58,6 +58,10 @@ REF_NOISE_WARN = 0.1
 #: Runs of the self-made reference.
 REF_RUNS = 4
 
+#: Files of :func:`write_report` besides ``<stem>_*`` (glob patterns; see :func:`brdflab.outputs.prepare_folder`).
+REPORT_PATTERNS = ("report.html", "results.csv", "results.json", "error_vs_*.png", "error_vs_*.svg",
+                   "relmse_map_*.png", "signed_map_*.png", "mis_weights_*.png")
+
 
 def label(name: str) -> str:
     """Human-readable name of an integrator spec."""
@@ -626,7 +630,9 @@ def write_tables(study: Study, out: Path) -> None:
             "rows": rows, "speedups": speed, "summary": summary(study),
             "checkpoints": [_clean_dict(c.__dict__) for c in sorted(study.checkpoints,
                                                                   key=lambda c: (c.integrator, c.run, c.spp))]}
-    (out / "results.json").write_text(json.dumps(meta, indent=2))
+    from brdflab.outputs import json_text, write_text
+
+    write_text(out / "results.json", json_text(meta, indent=2))
 
 
 def _clean_dict(d: dict) -> dict:
