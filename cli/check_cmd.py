@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     images = [read_exr(p) for p in args.renders]
     ref = read_exr(args.ref) if args.ref else None
     ref_var = read_exr(args.ref_var) if args.ref_var else None
-    check_inputs(images, ref_var, args.user_spp, [clean(p, 80) for p in args.renders], args.block)
+    check_inputs(images, ref_var, args.user_spp, [clean(p, 80) for p in args.renders], args.block, ref)
     out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
     inputs = [*args.renders, args.scene, *(p for p in (args.ref, args.ref_var) if p), *scene.inputs]
     prepare_folder(out, list(CHECK_FILES), inputs, args.force)  # before the work, not after it

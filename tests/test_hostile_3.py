@@ -207,6 +207,8 @@ def test_check_inputs_without_meaning_are_refused():
     for block in (1, 33, 10**6):
         with pytest.raises(ImageError, match="block side must be between 2 and"):
             check_inputs([img], block=block)
+    with pytest.raises(ImageError, match="the reference is the same image as 'render 1'"):
+        check_inputs([img], ref=img.copy())
     check_inputs([img, rng.random((32, 32, 3))], np.zeros((32, 32, 3)), 4, block=32)  # all fine
 
 

@@ -380,13 +380,13 @@ def _t_tests(diff: np.ndarray, var: np.ndarray, df: np.ndarray, cnt: np.ndarray,
 
 
 def check_inputs(user: list[np.ndarray], ref_var: np.ndarray | None = None, user_spp: int | None = None,
-                 names: list[str] | None = None, block: int | None = None) -> None:
+                 names: list[str] | None = None, block: int | None = None, ref: np.ndarray | None = None) -> None:
     """Refuse inputs that would give a p-value without meaning, before any work.
 
     Two user renders that are the same image (the same file given twice, or a copy) are not independent
     estimates: their zero difference would be read as a variance of zero and any difference from brdflab's
-    estimate as a bias. A variance must be finite and ≥ 0; a sample count ≥ 1; a block at least 2 pixels
-    and no larger than the image.
+    estimate as a bias; nor is a reference that is one of the renders. A variance must be finite and ≥ 0;
+    a sample count ≥ 1; a block at least 2 pixels and no larger than the image.
 
     Raises
     ------
@@ -402,6 +402,12 @@ def check_inputs(user: list[np.ndarray], ref_var: np.ndarray | None = None, user
         if j != i and np.array_equal(user[j], u, equal_nan=True):
             raise ImageError(f"'{names[i]}' and '{names[j]}' are the same image: several renders must be "
                              "independent (different seeds); give one of them only")
+    if ref is not None:
+        same = next((i for i, u in enumerate(user) if np.shape(u) == np.shape(ref)
+                     and np.array_equal(u, ref, equal_nan=True)), None)
+        if same is not None:
+            raise ImageError(f"the reference is the same image as '{names[same]}': a render cannot be checked "
+                             "against itself")
     if ref_var is not None:
         v = np.asarray(ref_var)
         bad = ~np.isfinite(v) | (v < 0)
@@ -638,7 +644,7 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
     ``resolution`` (width, height) replaces the scene camera's (quick checks, tests).
     """
     say = progress or (lambda msg: None)
-    check_inputs(user, ref_var, user_spp, block=block)
+    check_inputs(user, ref_var, user_spp, block=block, ref=ref)
     if ref is None:  # the estimate's cost, said before it starts
         import os
 
