@@ -137,20 +137,23 @@ def check_spp(spp: object, what: str = "spp") -> int:
     return spp
 
 
-def check_work(samples: float, workers: int, what: str, time_limit: float | None = None) -> None:
+def check_work(samples: float, workers: int, what: str, time_limit: float | None = None,
+               limit_option: str | None = "--time-limit") -> None:
     """Raise :class:`ResourceError` when ``samples`` (camera samples, BSDF evaluations …) on ``workers``
     would take longer than ``BRDFLAB_MAX_HOURS`` even at :data:`OPTIMISTIC_RATE`, before the work starts.
 
-    A ``time_limit`` bounds the run, so nothing is refused then.
+    A ``time_limit`` bounds the run, so nothing is refused then; ``limit_option`` is the option that sets
+    one (None: the command has none).
     """
     if time_limit is not None:
         return
     seconds = float(samples) / (OPTIMISTIC_RATE * max(int(workers), 1))
     limit = _env_number(WORK_ENV, DEFAULT_MAX_HOURS) * 3600
     if seconds > limit:
+        bound = f", pass {limit_option} SECONDS" if limit_option else ""
         raise ResourceError(f"{what} would take at least {duration(seconds)} ({float(samples):.3g} samples at "
-                            f"{OPTIMISTIC_RATE / 1e6:.0f} M/s per worker); lower the sample count, pass a time "
-                            f"limit (--time-limit), or raise {WORK_ENV}=<hours>")
+                            f"{OPTIMISTIC_RATE / 1e6:.0f} M/s per worker); lower the sample count{bound} or raise "
+                            f"{WORK_ENV}=<hours>")
 
 
 def check_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> int:

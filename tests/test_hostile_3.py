@@ -360,6 +360,11 @@ def test_work_is_estimated_before_it_starts(tmp_path, capsys):
             bl.render(scene, spp=spp, workers=1)
     _fails(["render", tmp_path / "scene.xml", "--spp", str(2**40), "--quiet"], capsys,
            r"would take at least [\d.]+ years .*--time-limit")
+    _fails(["report", tmp_path / "scene.xml", "--spp", str(2**40), "-o", tmp_path / "rep"], capsys,
+           r"the study .* would take at least .* years .*; lower the sample count or raise BRDFLAB_MAX_HOURS")
+    _fails(["chi2", "--bsdf", "diffuse", "-n", str(10**11), "-o", tmp_path / "c"], capsys,
+           r"would need .* GiB for 100,000,000,000 samples per test")
+    assert not (tmp_path / "rep").exists() and not (tmp_path / "c").exists()
     check_work(1e30, 1, "x", time_limit=1.0)  # a time limit bounds the run
     with pytest.raises(ResourceError, match="brdflab's estimate"):
         from brdflab.stats.check import run_check

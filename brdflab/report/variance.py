@@ -33,6 +33,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -336,6 +337,15 @@ def run_study(
     max_spp = max(spp_list)
     cam = load_scene(scene_path).camera
     width, height = resolution or (cam.width, cam.height)
+    from brdflab.limits import check_spp, check_work
+
+    for count in spp_list:
+        check_spp(count, "--spp")
+    total = len(integrators) * max_spp * max(runs, 1) + (0 if reference is not None
+                                                          else REF_RUNS * (reference_spp or 4 * max_spp))
+    check_work(total * width * height, workers or os.cpu_count() or 1,
+               f"the study ({len(integrators)} integrators × {runs} runs × {max_spp:,} spp and the reference at "
+               f"{width}×{height})", limit_option=None)
     ref_noise, ref_var = math.nan, 0.0
     if reference is not None:
         ref = read_exr(reference)

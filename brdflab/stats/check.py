@@ -652,7 +652,7 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
 
         h, w = resolution[::-1] if resolution else user[0].shape[:2]
         check_work(runs * check_spp(spp) * h * w, workers or os.cpu_count() or 1,
-                   f"brdflab's estimate ({runs} runs × {spp:,} spp at {w}×{h})")
+                   f"brdflab's estimate ({runs} runs × {spp:,} spp at {w}×{h})", limit_option=None)
     t0 = time.perf_counter()
     if ref is not None:
         est = Estimate(np.asarray(ref, dtype=np.float64), None,

@@ -89,11 +89,12 @@ def check_plot_work(opts: PlotOptions, n_bsdfs: int) -> None:
         check_memory(opts.samples * 8 * 3 * 8, f"{opts.samples:,} albedo samples per angle")
         check_work(opts.samples * len(views.ALBEDO_THETAS) * n_bsdfs, 1,
                    f"the Monte Carlo albedo ({opts.samples:,} samples × {len(views.ALBEDO_THETAS)} angles × "
-                   f"{n_bsdfs} BSDF(s))")
+                   f"{n_bsdfs} BSDF(s))", limit_option=None)
     if "sphere" in opts.views:
         spp = opts.sphere_spp * sum(SPP_FACTOR.values())
         check_work(spp * opts.sphere_size**2 * n_bsdfs, opts.workers or os.cpu_count() or 1,
-                   f"the lit spheres ({opts.sphere_size}² pixels × {spp:,} spp × {n_bsdfs} BSDF(s))")
+                   f"the lit spheres ({opts.sphere_size}² pixels × {spp:,} spp × {n_bsdfs} BSDF(s))",
+                   limit_option=None)
 
 
 def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | None = None,
