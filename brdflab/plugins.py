@@ -483,6 +483,10 @@ def build_bsdf(cls: type, props: PropertyList) -> Any:
     except (ValueError, TypeError) as exc:  # the plugin's own argument checks
         raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) rejected its parameters: "
                           f"{_first_line(exc)}") from exc
+    except BrdflabError:
+        raise
+    except (Exception, SystemExit) as exc:  # a plugin's bug (even sys.exit()) in its constructor
+        raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) failed: {_first_line(exc)}") from None
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
