@@ -142,14 +142,12 @@ def check_work(samples: float, workers: int, what: str, time_limit: float | None
     """Raise :class:`ResourceError` when ``samples`` (camera samples, BSDF evaluations …) on ``workers``
     would take longer than ``BRDFLAB_MAX_HOURS`` even at :data:`OPTIMISTIC_RATE`, before the work starts.
 
-    A ``time_limit`` bounds the run, so nothing is refused then; ``limit_option`` is the option that sets
-    one (None: the command has none).
+    A ``time_limit`` (seconds) bounds the run: nothing is refused when it is within the limit (a time limit
+    of 10³⁰⁰ s bounds nothing). ``limit_option`` is the option that sets one (None: the command has none).
     """
-    if time_limit is not None:
-        return
     seconds = float(samples) / (OPTIMISTIC_RATE * max(int(workers), 1))
     limit = _env_number(WORK_ENV, DEFAULT_MAX_HOURS) * 3600
-    if seconds > limit:
+    if min(seconds, time_limit if time_limit is not None else float("inf")) > limit:
         bound = f", pass {limit_option} SECONDS" if limit_option else ""
         raise ResourceError(f"{what} would take at least {duration(seconds)} ({float(samples):.3g} samples at "
                             f"{OPTIMISTIC_RATE / 1e6:.0f} M/s per worker); lower the sample count{bound} or raise "

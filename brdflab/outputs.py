@@ -89,13 +89,27 @@ def _listed(path: Path) -> bool:
         return False
 
 
+#: The main page of each kind of output folder; a folder whose page brdflab generated, written before
+#: :data:`MANIFEST` existed, is brdflab's (see :func:`made_by_brdflab`).
+FOLDER_PAGES = ("index.html", "check.html", "report.html")
+
+
+def _legacy_folder(path: Path) -> bool:
+    folder = path.parent
+    if (folder / MANIFEST).exists():
+        return False  # the manifest, when there is one, is the record
+    from brdflab.report.index import _ours
+
+    return any(path.name != page and (folder / page).is_file() and _ours(folder / page) for page in FOLDER_PAGES)
+
+
 def made_by_brdflab(path: str | Path) -> bool:
     """True when the existing file ``path`` was written by brdflab: listed in its folder's manifest
-    (:data:`MANIFEST`), or carrying brdflab's mark (an EXR's ``comments``/``brdflab_*`` header, a PNG's
-    ``Software`` chunk, an HTML page's generator tag; a PNG beside an EXR of brdflab with the same stem is
-    the preview of a render pair)."""
+    (:data:`MANIFEST`; without one, in a folder whose main page brdflab generated), or carrying brdflab's
+    mark (an EXR's ``comments``/``brdflab_*`` header, a PNG's ``Software`` chunk, an HTML page's generator
+    tag; a PNG beside an EXR of brdflab with the same stem is the preview of a render pair)."""
     path = Path(path)
-    if _listed(path):
+    if _listed(path) or _legacy_folder(path):
         return True
     if not path.is_file():
         return False

@@ -365,7 +365,9 @@ def test_work_is_estimated_before_it_starts(tmp_path, capsys):
     _fails(["chi2", "--bsdf", "diffuse", "-n", str(10**11), "-o", tmp_path / "c"], capsys,
            r"would need .* GiB for 100,000,000,000 samples per test")
     assert not (tmp_path / "rep").exists() and not (tmp_path / "c").exists()
-    check_work(1e30, 1, "x", time_limit=1.0)  # a time limit bounds the run
+    check_work(1e30, 1, "x", time_limit=1.0)  # a time limit bounds the run …
+    with pytest.raises(ResourceError, match="x would take at least"):
+        check_work(1e30, 1, "x", time_limit=1e300)  # … unless it bounds nothing
     with pytest.raises(ResourceError, match="brdflab's estimate"):
         from brdflab.stats.check import run_check
 
