@@ -175,7 +175,7 @@ def load_plugin(spec: str | Path) -> list[str]:
 
     text = str(spec)
     path = Path(text)
-    if text.endswith(".py") or os.sep in text or path.exists():
+    if text.endswith(".py") or os.sep in text or (path.exists() and not path.is_dir()):
         from brdflab.limits import check_input
 
         check_input(path, "plugin file")  # not found, a directory, a FIFO, a device: said as such
@@ -199,8 +199,9 @@ def load_plugin(spec: str | Path) -> list[str]:
         try:
             module = importlib.import_module(modname)
         except (Exception, SystemExit) as exc:
+            hint = " (a folder of that name exists: name a .py file in it)" if path.is_dir() else ""
             raise BrdflabError(f"plugin '{_short(text)}': cannot import module '{_short(modname)}': "
-                               f"{_first_line(exc)}") from exc
+                               f"{_first_line(exc)}{hint}") from exc
         if clsname:
             cls = getattr(module, clsname, None)
             if cls is None:
