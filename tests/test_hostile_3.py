@@ -191,6 +191,9 @@ def test_check_inputs_without_meaning_are_refused():
     from brdflab.stats.check import Estimate, check_images, check_inputs
 
     rng = np.random.default_rng(3)
+    big = rng.random((300, 257, 3))  # sides above 255
+    with pytest.raises(ImageError, match="are the same image"):
+        check_inputs([big, rng.random((300, 257, 3)), big.copy()])
     img = rng.random((32, 32, 3))
     with pytest.raises(ImageError, match="'a.exr' and 'b.exr'|'b.exr' and 'a.exr'"):
         check_inputs([img, img.copy()], names=["a.exr", "b.exr"])
