@@ -442,3 +442,20 @@ def test_file_system_errors_are_one_line(tmp_path, capsys, monkeypatch):
     write_exr(a, np.ones((4, 4, 3), np.float32))
     monkeypatch.setattr(cc, "json_text", vanished)
     _fails(["compare", a, a, "--json"], capsys, r"gone/x.png: No such file or directory")
+
+
+def test_plot_folder_removed_mid_run(tmp_path, capsys, monkeypatch):
+    import shutil
+
+    import brdflab.viz.static as st
+
+    real = st._write_all
+
+    def then_removed(*args):
+        cards = real(*args)
+        shutil.rmtree(tmp_path / "site")
+        return cards
+
+    monkeypatch.setattr(st, "_write_all", then_removed)
+    _fails(["plot", "--views", "polar", "-o", tmp_path / "site" / "p"], capsys,
+           r"cannot write the plots into '.*site/p': No such file or directory")

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from brdflab.errors import BrdflabError, clean
 from brdflab.viz import coords, figures, views
 
 VIEWS = ("polar", "lobe", "slice", "albedo", "sphere")
@@ -105,18 +106,22 @@ def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | N
     opts = opts or PlotOptions()
     say = progress or (lambda msg: None)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
-        cards = _write_all(bsdfs, labels, tmp, opts, say)
-        (tmp / "index.html").write_text(render(
-            "plot.html.j2", title="brdflab plot: " + ", ".join(labels), cards=cards, labels=labels, opts=opts,
-            polar_note=POLAR_NOTE, folder=tmp))
-        out.mkdir(exist_ok=True)
-        for p in sorted(tmp.iterdir()):
-            os.replace(p, out / p.name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+        try:
+            cards = _write_all(bsdfs, labels, tmp, opts, say)
+            (tmp / "index.html").write_text(render(
+                "plot.html.j2", title="brdflab plot: " + ", ".join(labels), cards=cards, labels=labels, opts=opts,
+                polar_note=POLAR_NOTE, folder=tmp))
+            out.mkdir(exist_ok=True)
+            for p in sorted(tmp.iterdir()):
+                os.replace(p, out / p.name)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    except OSError as exc:  # the folder was removed or made read-only during the run, a full disk …
+        reason = clean(exc.strerror or exc, 80)
+        raise BrdflabError(f"cannot write the plots into '{clean(out, 100)}': {reason}") from None
     return out / "index.html"
 
 
