@@ -176,7 +176,7 @@ def prepare_folder(folder: str | Path, names: list[str], inputs: list[str | Path
 
     One check for every command that writes into a folder: the folder is not a file, none of the outputs
     is an input of the run (even with ``force``) or an existing folder, none replaces a file brdflab did
-    not write (unless ``force``), and the folder can be written to. A name may be a glob pattern
+    not write (unless ``force``), and the folder can be written to. A name may hold ``*`` wildcards
     (``chi2_view_*.png``) for outputs whose number is known only after the run: every existing file it
     matches is checked.
     """
@@ -202,11 +202,14 @@ def prepare_files(paths: list[str | Path], inputs: list[str | Path] = (), force:
 
 
 def _expand(folder: Path, names: list[str]) -> list[Path]:
-    """``folder / name`` for every name; a glob pattern gives the existing files it matches."""
+    """``folder / name`` for every name; a name with ``*`` gives the existing files it matches."""
+    import glob
+
     out: list[Path] = []
     for n in names:
-        if any(c in n for c in "*?["):
-            out += sorted(folder.glob(n)) if folder.is_dir() else []
+        if "*" in n:  # only '*' is a wildcard: '[' or '?' in a scene's stem are literal
+            pattern = "*".join(glob.escape(part) for part in n.split("*"))
+            out += sorted(folder.glob(pattern)) if folder.is_dir() else []
         else:
             out.append(folder / n)
     return out
