@@ -352,6 +352,18 @@ def test_grouping_by_wi_is_fast_and_merges_boundaries():
     assert [g.tolist() for g in group_by_wi(wi)] == [[0, 5], [1, 2, 4], [3]]
 
 
+def test_too_many_wi_groups_is_an_error_not_an_hour(tmp_path):
+    from brdflab.validate.external import MAX_GROUPS, check_samples
+
+    rng = np.random.default_rng(2)
+    wi = rng.normal(size=(MAX_GROUPS + 100, 3))
+    wi[:, 2] = np.abs(wi[:, 2])
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    np.save(tmp_path / "s.npy", np.column_stack([wi, np.tile([0.0, 0.0, 1.0], (len(wi), 1))]))
+    with pytest.raises(BrdflabError, match=r"s.npy: 10,\d{3} distinct ω_i; at most 10,000 can be tested"):
+        check_samples(tmp_path / "s.npy", "diffuse")
+
+
 def test_work_is_estimated_before_it_starts(tmp_path, capsys):
     import brdflab as bl
     from brdflab.limits import check_work

@@ -55,6 +55,8 @@ COLUMN_RTOL = 1e-2
 COLUMN_FRACTION = 1e-3
 #: Fewest samples per ω_i group for a meaningful chi-square test.
 MIN_GROUP = 50
+#: Most ω_i groups one file may have (each is a chi-square test of its own).
+MAX_GROUPS = 10_000
 
 DIRECTION_WARPS = ("uniform_sphere", "uniform_hemisphere", "cosine_hemisphere", "beckmann")
 
@@ -189,13 +191,13 @@ def group_by_wi(wi: np.ndarray, tol: float = WI_TOLERANCE) -> list[np.ndarray]:
     """Index arrays of the samples sharing one ω_i (components equal within ``tol``), in file order.
 
     Distinct ω_i are cells of a grid of side ``tol``; two cells are merged when their representatives lie
-    within ``tol`` (a value on a cell boundary), which can only happen for neighbouring cells: the 26
-    neighbours of every cell are looked up at once (sorted keys, ``searchsorted``) and the merges are the
-    connected components of that graph, so the cost is O(n log n) in the number of distinct ω_i
-    (100 000 distinct ω_i group in well under a second).
+    within ``tol`` of each other (a value on a cell boundary). The close pairs come from a k-d tree (each
+    representative has at most 26 in neighbouring cells) and the merges are the connected components of
+    that graph, so the cost is O(n log n) in the number of distinct ω_i (10⁶ distinct ω_i in seconds).
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
 
     wi = np.asarray(wi, dtype=np.float64)
     if len(wi) == 0:
@@ -203,25 +205,12 @@ def group_by_wi(wi: np.ndarray, tol: float = WI_TOLERANCE) -> list[np.ndarray]:
     cell = np.floor(wi / tol)
     if not np.isfinite(cell).all() or np.abs(cell).max() >= 2**52:
         raise BrdflabError(f"ω_i components must be finite and below {2**52 * tol:.3g} in magnitude")
-    key = cell.astype(np.int64)
-    ukeys, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    _, first, inv = np.unique(cell.astype(np.int64), axis=0, return_index=True, return_inverse=True)
     inv = inv.ravel()
-    reps = wi[first]
-    n = len(ukeys)
-    # Lexicographic rank of an integer 3-vector among ukeys (ukeys is sorted lexicographically by np.unique).
-    rec = np.dtype([("x", np.int64), ("y", np.int64), ("z", np.int64)])
-    sorted_rec = np.ascontiguousarray(ukeys).view(rec).ravel()
-    rows, cols = [np.arange(n)], [np.arange(n)]
-    for off in np.array(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij")).reshape(3, -1).T:
-        if not off.any():
-            continue
-        probe = np.ascontiguousarray(ukeys + off).view(rec).ravel()
-        j = np.minimum(np.searchsorted(sorted_rec, probe), n - 1)
-        hit = (sorted_rec[j] == probe) & (np.abs(reps - reps[j]).max(axis=1) <= tol)
-        rows.append(np.nonzero(hit)[0])
-        cols.append(j[hit])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    _, comp = connected_components(coo_matrix((np.ones(len(r)), (r, c)), shape=(n, n)), directed=False)
+    n = len(first)
+    pairs = cKDTree(wi[first]).query_pairs(tol, p=np.inf, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
     labels = comp[inv]
     # Groups in the order of their first sample in the file.
     _, first_of = np.unique(labels, return_index=True)
@@ -446,6 +435,10 @@ def check_samples(samples: str | Path | Samples, against, *, alpha: float | None
     if seed is None:
         seed = test_seed("external", Path(s.path).name, name, alpha, params)
     groups = [np.arange(len(s.wo))] if kind == "warp" else group_by_wi(s.wi)
+    if len(groups) > MAX_GROUPS:  # bounded work, and each test needs MIN_GROUP samples of one ω_i
+        raise BrdflabError(f"{len(groups):,} distinct ω_i; at most {MAX_GROUPS:,} can be tested, each with at least "
+                           f"{MIN_GROUP} samples: write many samples per ω_i (e.g. 10⁴ for each of a few ω_i)",
+                           file=s.path)
     thr = c2.sidak(threshold, len(groups))
     out = []
     for gi, idx in enumerate(groups):
