@@ -124,6 +124,41 @@ def check_alpha(alpha: object, what: str = "alpha") -> None:
                            f"formulas lose float64 precision and the surface is a mirror), got {clean(alpha, 30)}")
 
 
+def check_test_arguments(theta: object, samples: object,
+                         threshold: object = None) -> tuple[float | None, int, float | None]:
+    """The arguments of a test, checked like the command line's options: θ_i a finite angle in [0°, 90°)
+    (None: no angle), ``samples`` an integer ≥ 1, ``threshold`` in (0, 1) or None.
+
+    Raises
+    ------
+    BrdflabError
+        Naming the argument (a test at θ_i = 90° or −10° would otherwise test nothing, or the wrong side,
+        and report a pass).
+    """
+    import math
+    import numbers
+
+    if theta is not None:
+        try:
+            t = float(theta)
+        except (TypeError, ValueError):
+            raise BrdflabError(f"theta must be a number of degrees, got {clean(repr(theta), 30)}") from None
+        if not (math.isfinite(t) and 0.0 <= t < 90.0):
+            raise BrdflabError(f"theta must be in [0, 90) degrees (ω_i above the surface), got {clean(theta, 30)}")
+        theta = t
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
+        raise BrdflabError(f"samples must be an integer ≥ 1, got {clean(repr(samples), 30)}")
+    if threshold is not None:
+        try:
+            ok = 0.0 < float(threshold) < 1.0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise BrdflabError(f"threshold must be a probability in (0, 1), got {clean(repr(threshold), 30)}")
+        threshold = float(threshold)
+    return theta, int(samples), threshold
+
+
 def check_spp(spp: object, what: str = "spp") -> int:
     """``spp`` as an int in [1, 2^63): anything else (a float, 10**30, a negative count) is a
     :class:`BrdflabError`."""

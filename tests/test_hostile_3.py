@@ -292,6 +292,10 @@ def test_api_chi2_test_angle_range(theta):
         bl.chi2_test(RoughConductor(R0=0.5, alpha=0.1), theta=theta, samples=2000)
     with pytest.raises(BrdflabError, match="samples must be an integer"):
         bl.chi2_test(RoughConductor(R0=0.5, alpha=0.1), theta=30.0, samples=-5)
+    with pytest.raises(BrdflabError, match=r"theta must be in \[0, 90\)"):
+        bl.consistency_test(RoughConductor(R0=0.5, alpha=0.1), theta=theta, samples=2000)
+    with pytest.raises(BrdflabError, match=r"theta must be in \[0, 90\)"):
+        bl.furnace_test(RoughConductor(R0=0.5, alpha=0.1), thetas=(0.0, theta), samples=2000)
 
 
 # -- hangs and unbounded work ----------------------------------------------------------------------------------------

@@ -54,42 +54,6 @@ def _plain(p: Any) -> Any:
     return p
 
 
-def check_test_arguments(theta: Any, samples: Any, threshold: Any = None) -> tuple[float | None, int, float | None]:
-    """The arguments of a test, checked like the command line's options: θ_i a finite angle in [0°, 90°)
-    (None: no angle), ``samples`` an integer ≥ 1, ``threshold`` in (0, 1) or None.
-
-    Raises
-    ------
-    BrdflabError
-        Naming the argument (a test at θ_i = 90° or −10° would otherwise test nothing, or the wrong side,
-        and report a pass).
-    """
-    import math
-    import numbers
-
-    from brdflab.errors import BrdflabError, clean
-
-    if theta is not None:
-        try:
-            t = float(theta)
-        except (TypeError, ValueError):
-            raise BrdflabError(f"theta must be a number of degrees, got {clean(repr(theta), 30)}") from None
-        if not (math.isfinite(t) and 0.0 <= t < 90.0):
-            raise BrdflabError(f"theta must be in [0, 90) degrees (ω_i above the surface), got {clean(theta, 30)}")
-        theta = t
-    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
-        raise BrdflabError(f"samples must be an integer ≥ 1, got {clean(repr(samples), 30)}")
-    if threshold is not None:
-        try:
-            ok = 0.0 < float(threshold) < 1.0
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise BrdflabError(f"threshold must be a probability in (0, 1), got {clean(repr(threshold), 30)}")
-        threshold = float(threshold)
-    return theta, int(samples), threshold
-
-
 def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | None = None,
               threshold: float | None = None, name: str | None = None, params: dict | None = None) -> Chi2Result:
     """Chi-square goodness of fit of ``bsdf.sample`` against ``bsdf.pdf`` for one incident angle.
@@ -128,6 +92,7 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
     >>> r.passed, r.observed.shape == r.expected.shape
     (True, True)
     """
+    from brdflab.limits import check_test_arguments
     from brdflab.validate.guard import bsdf_params, describe
 
     theta, samples, threshold = check_test_arguments(theta, samples, threshold)
@@ -151,6 +116,8 @@ def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: 
     >>> r.passed
     True
     """
+    from brdflab.limits import check_test_arguments
+
     _, samples, threshold = check_test_arguments(None, samples, threshold)
     seed = test_seed("warp", name) if seed is None else seed
     return _c2.warp_test(name, warp, pdf, int(samples), seed=seed,
