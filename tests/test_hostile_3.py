@@ -311,14 +311,16 @@ def _samples_text(path, n=60):
 @pytest.mark.parametrize("kind, pattern", [
     ("fifo", "samples file is a FIFO"), ("zero", "samples file is a character device"),
     ("dir", "samples file is a directory"), ("limit", "larger than the input limit"),
-    ("object", "cannot read as .npz"), ("bomb", "would need .* for the array 'samples'"),
+    ("object", "is an object array"), ("bomb", "would need 192 MiB for the array 'samples'"),
+    ("liar", r"the header claims shape \(1000000000, 6\) \(48,000,000,000 bytes\), but only 480 bytes follow"),
     ("complex", "expected a real numeric"),
 ])
 def test_sample_files_go_through_the_input_checks(tmp_path, monkeypatch, kind, pattern):
     from brdflab.validate.external import read_samples
 
     path = {"fifo": tmp_path / "s.txt", "zero": "/dev/zero", "dir": tmp_path, "limit": tmp_path / "s.txt",
-            "object": tmp_path / "s.npz", "bomb": tmp_path / "s.npz", "complex": tmp_path / "s.npy"}[kind]
+            "object": tmp_path / "s.npz", "bomb": tmp_path / "s.npz", "complex": tmp_path / "s.npy",
+            "liar": tmp_path / "s.npy"}[kind]
     if kind == "fifo":
         os.mkfifo(path)
     elif kind == "limit":
@@ -327,15 +329,18 @@ def test_sample_files_go_through_the_input_checks(tmp_path, monkeypatch, kind, p
     elif kind == "object":
         np.savez(path, samples=np.array([[0, 0, 1, 0, 0, 1]], dtype=object))
     elif kind == "bomb":
-        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:  # a header promising 6 × 10¹⁰ doubles
-            header = b"\x93NUMPY\x01\x00" + b"{'descr': '<f8', 'fortran_order': False, 'shape': (10000000000, 6), }"
-            header = header.ljust(127) + b"\n"
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:  # 192 MiB of zeros in a small .npz
+            header = b"{'descr': '<f8', 'fortran_order': False, 'shape': (4194304, 6), }".ljust(117) + b"\n"
+            header = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header
             with z.open("samples.npy", "w", force_zip64=True) as f:
                 f.write(header)
                 chunk = bytes(2**24)
                 for _ in range(12):  # 192 MiB of zeros, compressed to a fraction of a megabyte
                     f.write(chunk)
         monkeypatch.setenv("BRDFLAB_MEMORY_LIMIT_GB", "0.1")
+    elif kind == "liar":  # 480 bytes whose header claims 10⁹ rows (NumPy would allocate 48 GB first)
+        header = b"{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000, 6), }".ljust(117) + b"\n"
+        path.write_bytes(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header + bytes(480))
     elif kind == "complex":
         np.save(path, np.ones((10, 6), complex))
     with pytest.raises(BrdflabError, match=pattern):

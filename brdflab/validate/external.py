@@ -39,6 +39,7 @@ A malformed file raises :class:`~brdflab.errors.BrdflabError` with ``file:line``
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -156,27 +157,50 @@ def read_samples(path: str | Path) -> Samples:
 
 
 def _load_array(path: Path) -> np.ndarray:
-    """The array of a ``.npy`` or ``.npz`` samples file, its decompressed size checked against the memory
-    limit before it is read (a zip bomb), never unpickled (an object array is refused)."""
-    import zipfile
+    """The array of a ``.npy`` or ``.npz`` samples file, never unpickled (an object array is refused).
 
-    from brdflab.limits import check_memory
+    Before anything is allocated, the array's header is read and its size compared with the bytes that
+    really follow it (a 1 KB file whose header claims 10⁹ rows would otherwise make NumPy allocate 48 GB)
+    and with the memory limit (a zip bomb: a small ``.npz`` that decompresses to gigabytes).
+    """
+    import zipfile
 
     try:
         if path.suffix == ".npz":
             with zipfile.ZipFile(path) as z:
                 infos = {i.filename[:-4] if i.filename.endswith(".npy") else i.filename: i for i in z.infolist()}
-            keys = list(infos)
-            key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
-            if key is None:
-                raise BrdflabError(f"expected an array named 'samples' (found "
-                                   f"{', '.join(_short(k) for k in keys[:5]) or 'none'})", file=path)
-            check_memory(infos[key].file_size, f"the array '{_short(key)}' of {path.name} (decompressed)")
+                keys = list(infos)
+                key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
+                if key is None:
+                    raise BrdflabError(f"expected an array named 'samples' (found "
+                                       f"{', '.join(_short(k) for k in keys[:5]) or 'none'})", file=path)
+                with z.open(infos[key]) as f:
+                    _check_array_header(f, infos[key].file_size, path, f"the array '{_short(key)}' of {path.name}")
             with np.load(path, allow_pickle=False) as z:
                 return z[key]
+        with open(path, "rb") as f:
+            _check_array_header(f, os.fstat(f.fileno()).st_size, path, "the array")
         return np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
         raise BrdflabError(f"cannot read as {path.suffix}: {_short(str(exc), 60)}", file=path) from None
+
+
+def _check_array_header(f, size: int, path: Path, what: str) -> None:
+    """Check the ``.npy`` header at the start of ``f`` (``size`` bytes in all) before the array is read."""
+    from numpy.lib import format as npy
+
+    from brdflab.limits import check_memory
+
+    version = npy.read_magic(f)
+    read = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+    shape, _, dtype = read(f)
+    if dtype.hasobject:
+        raise BrdflabError(f"{what} is an object array (it would need unpickling); save numbers", file=path)
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > size - f.tell():
+        raise BrdflabError(f"{what}: the header claims shape {tuple(shape)} ({need:,} bytes), but only "
+                           f"{max(size - f.tell(), 0):,} bytes follow", file=path)
+    check_memory(need, f"{what} (shape {tuple(shape)})")
 
 
 def _is_float(t: str) -> bool:
