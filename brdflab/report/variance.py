@@ -341,11 +341,12 @@ def run_study(
 
     for count in spp_list:
         check_spp(count, "--spp")
-    total = len(integrators) * max_spp * max(runs, 1) + (0 if reference is not None
-                                                          else REF_RUNS * (reference_spp or 4 * max_spp))
-    check_work(total * width * height, workers or os.cpu_count() or 1,
-               f"the study ({len(integrators)} integrators × {runs} runs × {max_spp:,} spp and the reference at "
-               f"{width}×{height})", limit_option=None)
+    if cluster is None:  # the study's cost, said before it starts (on a cluster each render checks its own)
+        total = len(integrators) * max_spp * max(runs, 1) + (0 if reference is not None
+                                                              else REF_RUNS * (reference_spp or 4 * max_spp))
+        check_work(total * width * height, workers or os.cpu_count() or 1,
+                   f"the study ({len(integrators)} integrators × {runs} runs × {max_spp:,} spp and the reference "
+                   f"at {width}×{height})", limit_option=None)
     ref_noise, ref_var = math.nan, 0.0
     if reference is not None:
         ref = read_exr(reference)

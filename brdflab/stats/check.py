@@ -643,7 +643,7 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
     """
     say = progress or (lambda msg: None)
     check_inputs(user, ref_var, user_spp, block=block, ref=ref)
-    if ref is None:  # the estimate's cost, said before it starts
+    if ref is None and map_fn is map:  # the estimate's cost, said before it starts (a cluster's jobs: by each)
         import os
 
         from brdflab.limits import check_spp, check_work
