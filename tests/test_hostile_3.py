@@ -373,29 +373,37 @@ def test_too_many_wi_groups_is_an_error_not_an_hour(tmp_path):
         check_samples(tmp_path / "s.npy", "diffuse")
 
 
-def test_work_is_estimated_before_it_starts(tmp_path, capsys):
+def test_work_is_estimated_before_it_starts(tmp_path, capsys, monkeypatch):
+    # Every run below is bounded even if the estimate were missing (a stop after the first pass, a time
+    # limit, small sample counts under a tiny BRDFLAB_MAX_HOURS), so a regression fails instead of hanging.
+    import threading
+
     import brdflab as bl
     from brdflab.limits import check_work
+    from brdflab.render import render
+    from brdflab.stats.check import run_check
 
     scene = bl.load_scene(_scene(tmp_path))
-    for spp, pattern in ((10**30, "between 1 and 2"), (2.5, "must be an integer"), (-5, "between 1 and 2"),
-                         (2**50, "would take at least .* years")):
+    for spp, pattern in ((10**30, "between 1 and 2"), (2.5, "must be an integer"), (-5, "between 1 and 2")):
         with pytest.raises(BrdflabError, match=pattern):
             bl.render(scene, spp=spp, workers=1)
-    _fails(["render", tmp_path / "scene.xml", "--spp", str(2**40), "--quiet"], capsys,
-           r"would take at least [\d.]+ years .*--time-limit")
-    _fails(["report", tmp_path / "scene.xml", "--spp", str(2**40), "-o", tmp_path / "rep"], capsys,
-           r"the study .* would take at least .* years .*; lower the sample count or raise BRDFLAB_MAX_HOURS")
-    _fails(["chi2", "--bsdf", "diffuse", "-n", str(10**11), "-o", tmp_path / "c"], capsys,
-           r"would need .* GiB for 100,000,000,000 samples per test")
-    assert not (tmp_path / "rep").exists() and not (tmp_path / "c").exists()
+    stop = threading.Event()
+    with pytest.raises(ResourceError, match=r"1,125,899,906,842,624 spp with 1 worker would take at least [\d,.]+ "
+                       "years .*lower the sample count, pass --time-limit SECONDS"):
+        render(scene, spp=2**50, workers=1, stop=stop, on_pass=lambda *a: stop.set())
     check_work(1e30, 1, "x", time_limit=1.0)  # a time limit bounds the run …
     with pytest.raises(ResourceError, match="x would take at least"):
         check_work(1e30, 1, "x", time_limit=1e300)  # … unless it bounds nothing
+    monkeypatch.setenv("BRDFLAB_MAX_HOURS", "1e-7")  # 0.36 ms: any real run is "too long"
+    _fails(["render", tmp_path / "scene.xml", "--spp", "64", "--time-limit", "2", "--quiet"], capsys,
+           r"would take at least .*--time-limit")
+    _fails(["report", tmp_path / "scene.xml", "--spp", "4", "--runs", "2", "-o", tmp_path / "rep"], capsys,
+           r"the study .* would take at least .*; lower the sample count or raise BRDFLAB_MAX_HOURS")
     with pytest.raises(ResourceError, match="brdflab's estimate"):
-        from brdflab.stats.check import run_check
-
-        run_check([np.ones((24, 32, 3))], tmp_path / "scene.xml", "direct_ems", spp=2**40, runs=4, workers=1)
+        run_check([np.ones((24, 32, 3))], tmp_path / "scene.xml", "direct_ems", spp=4, runs=2, workers=1)
+    _fails(["chi2", "--bsdf", "diffuse", "-n", str(10**11), "-o", tmp_path / "c"], capsys,
+           r"would need .* GiB for 100,000,000,000 samples per test")
+    assert not (tmp_path / "rep").exists() and not (tmp_path / "c").exists()
 
 
 def test_plot_limits(tmp_path, capsys, monkeypatch):
