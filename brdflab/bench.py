@@ -241,8 +241,9 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
         doc = {"date": time.strftime("%Y-%m-%d %H:%M"), "machine": {"cpus": os.cpu_count(),
                "platform": platform.platform(), "python": platform.python_version()},
                "spp": spp, "runs": runs, "results": records}
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(doc, indent=2))
+        from brdflab.outputs import json_text, write_text
+
+        write_text(out, json_text(doc, indent=2))
     return records
 
 

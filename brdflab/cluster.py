@@ -93,7 +93,7 @@ WORKER_WAIT = 60.0
 #: Scenes kept per worker process (by content hash).
 SCENE_CACHE = 4
 
-_SCHEMES = ("tcp", "tls", "ucx", "inproc", "ws", "wss")
+_SCHEMES = ("tcp",)
 
 
 class ClusterError(BrdflabError):
@@ -117,20 +117,30 @@ def parse_address(text: str) -> tuple[str, int | str]:
     BrdflabError
         For anything else, with the accepted forms.
     """
+    from brdflab.limits import max_local_workers
+
     t = text.strip()
+    shown = t[:60].encode("unicode_escape").decode("ascii")
     if t == "local" or t.startswith("local:"):
         n = t[6:]
         if not n:
             return "local", os.cpu_count() or 1
-        if n.isdigit() and int(n) >= 1:
+        if re.fullmatch(r"[0-9]{1,9}", n) and int(n) >= 1:  # ASCII digits only ('²'.isdigit() is True)
+            limit = max_local_workers()
+            if int(n) > limit:
+                raise BrdflabError(f"cluster address '{shown}': at most {limit} local workers (4 per core; raise "
+                                   "it with BRDFLAB_MAX_LOCAL_WORKERS=<N>)")
             return "local", int(n)
-    elif "://" in t:
-        if t.split("://", 1)[0] in _SCHEMES and len(t.split("://", 1)[1]) > 0:
-            return "remote", t
-    elif re.fullmatch(r"[A-Za-z0-9_.\-]+:\d{1,5}|\[[0-9A-Fa-f:]+\]:\d{1,5}", t):
-        return "remote", "tcp://" + t
-    shown = t[:60].encode("unicode_escape").decode("ascii")
-    raise BrdflabError(f"cluster address: expected tcp://HOST:PORT, local or local:N (N ≥ 1), got '{shown}'")
+    else:
+        scheme, sep, rest = t.rpartition("://")
+        if (sep and scheme not in _SCHEMES) or (sep and "://" in scheme):
+            raise BrdflabError(f"cluster address: expected tcp://HOST:PORT, got '{shown}' (brdflab connects only "
+                               "over tcp: other Dask transports need a configuration it does not pass)")
+        m = re.fullmatch(r"([A-Za-z0-9_.\-]+|\[[0-9A-Fa-f:]+\]):([0-9]{1,5})", rest)
+        if m and 1 <= int(m.group(2)) <= 65535:
+            return "remote", "tcp://" + rest
+    raise BrdflabError(f"cluster address: expected tcp://HOST:PORT (port 1–65535), local or local:N (N ≥ 1), "
+                       f"got '{shown}'")
 
 
 def cluster_address(option: str | None) -> str | None:
@@ -416,7 +426,7 @@ class Cluster:
             else:
                 try:
                     self.client = Client(arg, timeout=timeout, set_as_default=False)
-                except (OSError, TimeoutError) as exc:
+                except Exception as exc:  # noqa: BLE001 - Dask's errors for an unreachable/odd scheduler vary
                     raise ClusterError(f"cannot reach the Dask scheduler at {arg}: {_one_line(exc)}") from None
         elif isinstance(address, Client):
             self.client, self._own_client = address, False

@@ -9,6 +9,8 @@ variable                       default                             what it bound
 ``BRDFLAB_MAX_INPUT_MB``       2048 (2 GiB)                        size of any input file (scene, OBJ, EXR)
 ``BRDFLAB_MEMORY_LIMIT_GB``    half of the physical memory         estimated memory of the film, the
                                (at most 16)                        environment map tables and the workers
+``BRDFLAB_MAX_HOURS``          24                                  estimated least duration of a run without
+                                                                   a time limit (:func:`check_work`)
 =============================  ==================================  ===========================================
 
 :func:`read_input` is the one way brdflab opens a user's file for reading: it refuses what is not a
@@ -17,7 +19,8 @@ says which kind of file it is, and it refuses files above the size limit before 
 sparse file). :func:`check_input` does the same checks for readers that open the path themselves
 (OpenEXR). :func:`check_memory` compares an estimate with the memory limit and raises
 :class:`~brdflab.errors.ResourceError` ("would need 3.0 GiB for …") instead of letting an allocation end
-in ``MemoryError`` or the kernel's OOM killer.
+in ``MemoryError`` or the kernel's OOM killer. :func:`check_work` does the same for time: a render of
+2^40 spp is refused before it starts ("would take at least 27 years"), unless a time limit bounds it.
 """
 
 from __future__ import annotations
@@ -32,6 +35,18 @@ from brdflab.errors import BrdflabError, ResourceError, clean
 INPUT_ENV = "BRDFLAB_MAX_INPUT_MB"
 MEMORY_ENV = "BRDFLAB_MEMORY_LIMIT_GB"
 DEFAULT_INPUT_MB = 2048
+WORK_ENV = "BRDFLAB_MAX_HOURS"
+DEFAULT_MAX_HOURS = 24.0
+#: Samples per second per worker assumed by :func:`check_work`: about 4× the fastest rate brdflab has been
+#: measured at (2.5 M samples/s on an idle core, README "Benchmarks"), so an estimate is a lower bound.
+OPTIMISTIC_RATE = 10e6
+#: Smallest roughness α the validators and views accept: below it the microfacet D = 1/(π α²) … and its
+#: quadrature lose float64 precision (measured: brdflab's own correct roughconductor fails the chi-square
+#: test at α = 10⁻⁸, and one albedo quadrature takes 10 s at 10⁻⁷ against 0.2 s at 10⁻⁶); such a
+#: surface is a mirror at every resolution brdflab draws.
+MIN_ALPHA = 1e-6
+#: Sample counts are 64-bit: samples per pixel (and seeds of passes) beyond this cannot be counted.
+MAX_SPP = 2**63 - 1
 #: Resident memory a forked render worker needs besides what it shares with the parent (its batch
 #: temporaries and interpreter pages that copy-on-write duplicates), used by the worker estimate.
 WORKER_BYTES = 96 * 2**20
@@ -82,6 +97,96 @@ def check_memory(nbytes: float, what: str) -> None:
     if nbytes > limit:
         raise ResourceError(f"would need {gib(nbytes)} for {what}, more than the memory limit of {gib(limit)} "
                             f"(raise it with {MEMORY_ENV}=<GiB>)")
+
+
+def duration(seconds: float) -> str:
+    """``"3.2 hours"``, ``"27 years"``: a rough duration for messages."""
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600), ("minutes", 60)):
+        if seconds >= size:
+            n = seconds / size
+            return f"{n:.3g} {unit}" if n < 1000 else (f"{n:,.0f} {unit}" if n < 1e9 else f"{n:.1e} {unit}")
+    return f"{seconds:.0f} seconds"
+
+
+def max_local_workers() -> int:
+    """Most workers of a ``local:N`` Dask cluster: 4 per core (``BRDFLAB_MAX_LOCAL_WORKERS`` overrides)."""
+    return int(_env_number("BRDFLAB_MAX_LOCAL_WORKERS", 4 * (os.cpu_count() or 1)))
+
+
+def check_alpha(alpha: object, what: str = "alpha") -> None:
+    """Raise :class:`BrdflabError` unless ``alpha`` is a finite roughness ≥ :data:`MIN_ALPHA`."""
+    try:
+        a = float(alpha)
+    except (TypeError, ValueError):
+        raise BrdflabError(f"{what} must be a number, got {clean(alpha, 30)}") from None
+    if not (a >= MIN_ALPHA and a < float("inf")):
+        raise BrdflabError(f"{what} must be a finite roughness ≥ {MIN_ALPHA:g} (below, the microfacet "
+                           f"formulas lose float64 precision and the surface is a mirror), got {clean(alpha, 30)}")
+
+
+def check_test_arguments(theta: object, samples: object,
+                         threshold: object = None) -> tuple[float | None, int, float | None]:
+    """The arguments of a test, checked like the command line's options: θ_i a finite angle in [0°, 90°)
+    (None: no angle), ``samples`` an integer ≥ 1, ``threshold`` in (0, 1) or None.
+
+    Raises
+    ------
+    BrdflabError
+        Naming the argument (a test at θ_i = 90° or −10° would otherwise test nothing, or the wrong side,
+        and report a pass).
+    """
+    import math
+    import numbers
+
+    if theta is not None:
+        try:
+            t = float(theta)
+        except (TypeError, ValueError):
+            raise BrdflabError(f"theta must be a number of degrees, got {clean(repr(theta), 30)}") from None
+        if not (math.isfinite(t) and 0.0 <= t < 90.0):
+            raise BrdflabError(f"theta must be in [0, 90) degrees (ω_i above the surface), got {clean(theta, 30)}")
+        theta = t
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
+        raise BrdflabError(f"samples must be an integer ≥ 1, got {clean(repr(samples), 30)}")
+    if threshold is not None:
+        try:
+            ok = 0.0 < float(threshold) < 1.0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise BrdflabError(f"threshold must be a probability in (0, 1), got {clean(repr(threshold), 30)}")
+        threshold = float(threshold)
+    return theta, int(samples), threshold
+
+
+def check_spp(spp: object, what: str = "spp") -> int:
+    """``spp`` as an int in [1, 2^63): anything else (a float, 10**30, a negative count) is a
+    :class:`BrdflabError`."""
+    import numbers
+
+    if isinstance(spp, bool) or not isinstance(spp, numbers.Integral):
+        raise BrdflabError(f"{what} must be an integer, got {clean(repr(spp), 30)}")
+    spp = int(spp)
+    if not 1 <= spp <= MAX_SPP:
+        raise BrdflabError(f"{what} must be between 1 and 2^63 − 1, got {clean(spp, 30)}")
+    return spp
+
+
+def check_work(samples: float, workers: int, what: str, time_limit: float | None = None,
+               limit_option: str | None = "--time-limit") -> None:
+    """Raise :class:`ResourceError` when ``samples`` (camera samples, BSDF evaluations …) on ``workers``
+    would take longer than ``BRDFLAB_MAX_HOURS`` even at :data:`OPTIMISTIC_RATE`, before the work starts.
+
+    A ``time_limit`` (seconds) bounds the run: nothing is refused when it is within the limit (a time limit
+    of 10³⁰⁰ s bounds nothing). ``limit_option`` is the option that sets one (None: the command has none).
+    """
+    seconds = float(samples) / (OPTIMISTIC_RATE * max(int(workers), 1))
+    limit = _env_number(WORK_ENV, DEFAULT_MAX_HOURS) * 3600
+    if min(seconds, time_limit if time_limit is not None else float("inf")) > limit:
+        bound = f", pass {limit_option} SECONDS" if limit_option else ""
+        raise ResourceError(f"{what} would take at least {duration(seconds)} ({float(samples):.3g} samples at "
+                            f"{OPTIMISTIC_RATE / 1e6:.0f} M/s per worker); lower the sample count{bound} or raise "
+                            f"{WORK_ENV}=<hours>")
 
 
 def check_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> int:

@@ -191,12 +191,9 @@ def load_plugin(spec: str | Path, base: str | Path | None = None) -> list[str]:
 
 def _load_file(path: Path, clsname: str, text: str) -> list[str]:
     from brdflab.bsdf.base import BSDF
+    from brdflab.limits import check_input
 
-    if not path.exists():
-        raise BrdflabError(f"plugin file '{_short(str(path), 100)}' not found")
-    if not path.is_file():
-        what = "a folder" if path.is_dir() else "not a regular file"
-        raise BrdflabError(f"plugin file '{_short(str(path), 100)}' is {what}; expected a .py file")
+    check_input(path, "plugin file")  # not found, a directory, a FIFO, a device: said as such
     modname = f"brdflab_plugin_{abs(hash(str(path.resolve()))):x}"
     if modname in sys.modules:
         module = sys.modules[modname]
@@ -236,8 +233,9 @@ def _load_module(modname: str, clsname: str, text: str, base: str | Path | None)
     except BaseException as exc:
         if isinstance(exc, KeyboardInterrupt):
             raise
+        hint = " (a folder of that name exists: name a .py file in it)" if Path(text).is_dir() else ""
         raise BrdflabError(f"plugin '{_short(text)}': cannot import module '{_short(modname)}': "
-                           f"{_first_line(exc)}{plugin_location(exc)}") from exc
+                           f"{_first_line(exc)}{plugin_location(exc)}{hint}") from exc
     finally:
         if added:
             sys.path.remove(str(base))

@@ -54,7 +54,7 @@ import numpy as np
 from brdflab.alloc import tune_allocator
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
-from brdflab.limits import WORKER_BYTES, check_memory
+from brdflab.limits import WORKER_BYTES, check_memory, check_spp, check_work
 from brdflab.scene.geometry import RayStats
 
 #: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
@@ -347,6 +347,9 @@ def _results(scene, units: Iterable[tuple], seed: int, workers: int, halt: threa
                 b, slot, fut = pending.popleft()
                 try:
                     res = fut.result()
+                except SystemExit as exc:  # sys.exit() in a worker's task (a plugin outside its checks)
+                    raise BrdflabError(f"a render worker called sys.exit({clean(exc.code, 30)}); no image "
+                                       "written") from None
                 except BrokenProcessPool:
                     raise BrdflabError("a render worker process died unexpectedly (killed by the system, "
                                        "perhaps out of memory); no image written") from None
@@ -449,8 +452,7 @@ def render(
     seed = scene.seed if seed is None else seed
     if not 0 <= seed < 2**64:
         raise BrdflabError(f"the seed must be an integer in [0, 2^64), got {clean(seed, 30)}")
-    if spp < 1:
-        raise BrdflabError(f"spp must be at least 1, got {spp}")
+    spp = check_spp(spp)
     if cluster is None and workers is not None and not 1 <= workers <= MAX_WORKERS:
         raise BrdflabError(f"workers must be between 1 and {MAX_WORKERS}, got {workers}")
     executor = ForkPool(workers) if cluster is None else _cluster_executor(cluster)
@@ -474,6 +476,8 @@ def render(
     local = workers if cluster is None else 1  # a cluster's workers use their own machines' memory
     check_memory(render_memory(cam.width, cam.height, scene.filter, local, max_tile_size(cam.width, cam.height)),
                  f"a {cam.width}×{cam.height} render with {local} worker{'s' if local > 1 else ''}")
+    check_work(spp * cam.width * cam.height, workers, f"a {cam.width}×{cam.height} render at {spp:,} spp with "
+               f"{workers} worker{'s' if workers > 1 else ''}", time_limit)
     film = Film(cam.width, cam.height, scene.filter)
 
     def unit_stream() -> Iterator[tuple]:

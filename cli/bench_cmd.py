@@ -47,6 +47,11 @@ def run(args: argparse.Namespace) -> int:
         where = clean(ROOT / CASES[missing[0]][0], 100)
         raise BrdflabError(f"bench scene of {', '.join(missing)} not found ({where}); "
                            "nothing was run")
+    from brdflab.outputs import check_outputs, check_writable, output_folder
+
+    check_outputs([args.json], [])  # before the runs: not a folder, a writable place
+    output_folder(args.json.parent, "--json")
+    check_writable(args.json.parent, "--json")
     records = run_suite(args.cases, args.spp, args.runs, args.workers, args.json, plugins=args.plugin)
     expected = sum(1 if is_scene_case(c) else len(CASES[c][1]) for c in args.cases)
     if len(records) < expected:

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from brdflab.cli.argtypes import count
-from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_bsdf_options, add_effort_option, bsdf_spec_from_args, load_plugins
@@ -42,6 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per test when brdflab samples, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/chi2_<name>)")
+    p.add_argument("--force", action="store_true", help="replace files in the report folder that brdflab did not "
+                   "write")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run, parser=p)
@@ -75,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the tests and write the report (``--samples FILE``: :func:`run_samples_file`)."""
     from brdflab.errors import BrdflabError
     from brdflab.report.index import write_index
-    from brdflab.report.validation import write_validation_report
+    from brdflab.report.validation import VALIDATION_FILES, write_validation_report
     from brdflab.validate.battery import ALPHAS, THETAS, run_battery
 
     if isinstance(args.samples, str):
@@ -95,13 +97,14 @@ def run(args: argparse.Namespace) -> int:
             raise BrdflabError("--param applies to --bsdf, not to --warp")
     out = args.output or DEFAULT_REPORTS / f"chi2_{name.replace('/', '_')}"
     parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
-    output_folder(out)
+    prepare_folder(out, list(VALIDATION_FILES), getattr(args, "plugin", None) or [], args.force)
     with cluster_from_args(args) as cluster:
         bat = run_battery(n=n, bsdfs=[name] if args.bsdf else [],
                           warp_names=[name] if args.warp else [], alphas=tuple(alphas or ALPHAS),
                           thetas=tuple(thetas or THETAS), params=params, full=args.full, progress=print,
                           cluster=cluster)
     path = write_validation_report(bat, out, title=f"brdflab chi-square: {name}")
+    record_outputs(out, list(VALIDATION_FILES))
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
@@ -140,7 +143,8 @@ def run_samples_file(args: argparse.Namespace) -> int:
         name, params, _, _ = bsdf_spec_from_args(args, args.against)
     out = args.output or DEFAULT_REPORTS / f"chi2_samples_{Path(args.samples).stem}"
     parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
-    output_folder(out)
+    report_files = ["index.html", "samples_group_*.png"]
+    prepare_folder(out, report_files, [args.samples, *(getattr(args, "plugin", None) or [])], args.force)
     res = check_samples(args.samples, name, alpha=alphas[0] if alphas else None, params=params)
     print(f"{res.path}: {sum(g.n for g in res.groups)} samples in {len(res.groups)} wi group(s) against "
           f"{res.against} (chi-square threshold {res.threshold:.3g} per group)")
@@ -150,6 +154,7 @@ def run_samples_file(args: argparse.Namespace) -> int:
     from brdflab.report.samples_report import write_samples_report
 
     path = write_samples_report(res, out)
+    record_outputs(out, report_files)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)

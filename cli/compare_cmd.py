@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from brdflab.errors import BrdflabError, clean
-from brdflab.outputs import check_outputs
+from brdflab.outputs import json_text, prepare_files
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,6 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--crop", metavar="X,Y,W,H", help="measure only this region (pixels; origin top left)")
     p.add_argument("--no-flip", action="store_true", help="skip HDR-FLIP")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p.add_argument("--force", action="store_true", help="replace a --heatmap/--signed file brdflab did not write")
     p.set_defaults(func=run)
 
 
@@ -35,7 +35,8 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.report.metrics import compare, crop, flip_error, write_heatmap, write_signed_map
 
     heatmap, signed = _figure_path(args.heatmap, "--heatmap"), _figure_path(args.signed, "--signed")
-    check_outputs([p for p in (heatmap, signed) if p is not None], [args.test, args.reference])
+    prepare_files([p for p in (heatmap, signed) if p is not None], [args.test, args.reference], args.force,
+                  "--heatmap")
     test, ref = read_exr(args.test), read_exr(args.reference)
     try:
         m = compare(test, ref)
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         d = m.to_dict()
         d["flip"] = flip
         d["crop"] = list(_box(args.crop)) if args.crop else None
-        print(json.dumps(d, indent=2))
+        print(json_text(d, indent=2))
     else:
         if args.crop:
             print(f"region {args.crop}")
@@ -64,8 +65,10 @@ def run(args: argparse.Namespace) -> int:
         rows += [(c, v["mse"], v["rmse"], v["relmse"], v["mape"], v["bias"]) for c, v in m.per_channel.items()]
         for name, mse, rmse, rel, mape, bias in rows:
             print(f"{name:8}{mse:12.4e}{rmse:12.4e}{rel:12.4e}{mape:12.4e}{100 * bias:+9.3f}%")
-        if flip is not None:
+        if flip is not None and flip == flip:
             print(f"HDR-FLIP  {flip:.4f}  (mean over pixels; 0 identical, 1 maximal; exposures from the reference)")
+        elif flip is not None:
+            print("HDR-FLIP  undefined (the reference has no positive luminance to set its exposures)")
         if m.nonfinite:
             print(f"{m.nonfinite} non-finite pixels excluded (of {m.pixels})")
     return 0

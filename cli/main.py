@@ -117,6 +117,15 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError):
             pass
         return EXIT_BROKEN_PIPE
+    except OSError as exc:
+        # A file-system error no specific check caught (a folder removed or made read-only mid-run, a full
+        # disk): one line naming the file, exit status 2.
+        if debug:
+            raise
+        name = exc.filename if exc.filename is not None else ""
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        print(f"brdflab: error: {clean(name, 120) + ': ' if name else ''}{clean(reason, 120)}", file=sys.stderr)
+        return EXIT_USAGE
     except MemoryError:
         if debug:
             raise

@@ -9,6 +9,7 @@ import argparse
 import math
 
 from brdflab.errors import BrdflabError
+from brdflab.limits import MIN_ALPHA, check_alpha
 
 from .argtypes import number
 
@@ -44,8 +45,8 @@ def add_bsdf_options(p: argparse.ArgumentParser, required: bool = False, repeat:
     p.add_argument("--param", action="append", default=[], metavar="K=V",
                    help="BSDF parameter named as in scene files, e.g. R0=0.9 or R0=0.9,0.8,0.7 or intIOR=1.33 "
                    "(repeatable; converted by the parameter's type)")
-    p.add_argument("--alpha", type=number(0.0, open_lo=True), action="append", metavar="A",
-                   help="roughness α > 0 (repeatable; only for a BSDF with an alpha parameter)")
+    p.add_argument("--alpha", type=number(MIN_ALPHA), action="append", metavar="A",
+                   help=f"roughness α ≥ {MIN_ALPHA:g} (repeatable; only for a BSDF with an alpha parameter)")
     p.add_argument("--theta", type=number(0.0, 90.0, open_hi=True), action="append", metavar="DEG",
                    help="incident angle θ_i in degrees, in [0, 90) (repeatable)")
     add_plugin_option(p)
@@ -89,6 +90,8 @@ def bsdf_spec_from_args(args: argparse.Namespace,
     base = name.split("/")[0]
     props = property_list(base, parse_params(args.param), owner=f"--bsdf {base}")
     params = {k: props._props[k].value for k in props.names()}
+    if isinstance(params.get("alpha"), float | int):
+        check_alpha(params["alpha"], "--param alpha")
     alphas = args.alpha
     if alphas:
         if "alpha" not in parameter_kinds(bsdf_class(base)):

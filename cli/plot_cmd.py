@@ -40,6 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--spp", type=count(1, 1 << 20), default=16, help="lit-sphere samples per pixel (default 16)")
     p.add_argument("--workers", type=count(1, 256), help="render workers (default: all cores)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default plots/<first bsdf>)")
+    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
+                   "write")
     add_effort_option(p)
     p.set_defaults(func=run)
 
@@ -47,8 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the BSDFs and write the views."""
     from brdflab.cli.options import load_plugins
+    from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.viz import spec as bspec
-    from brdflab.viz.static import VIEWS, PlotOptions, write_plots
+    from brdflab.viz.static import VIEWS, PlotOptions, check_plot_work, plot_files, write_plots
 
     load_plugins(args)
     thetas = args.theta or [45.0]
@@ -70,6 +73,10 @@ def run(args: argparse.Namespace) -> int:
     out = args.output or Path("plots") / specs[0].name
     opts = PlotOptions(theta=theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
                        sphere_size=args.size, sphere_spp=args.spp, workers=args.workers)
+    names = plot_files(chosen, len(bsdfs))
+    check_plot_work(opts, len(bsdfs))
+    prepare_folder(out, names, [*(getattr(args, "plugin", None) or [])], args.force)  # before the work
     path = write_plots(bsdfs, labels, out, opts, progress=lambda m: print("  " + m))
+    record_outputs(out, names)
     print(f"wrote {', '.join(chosen)} for {len(bsdfs)} BSDF(s): {path}")
     return 0

@@ -41,6 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=seconds, metavar="SECONDS",
                    help="render as many full passes as fit in this time (a number > 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--force", action="store_true", help="replace an existing EXR/PNG that brdflab did not write "
+                   "(never an input of the run)")
     add_plugin_option(p)
     add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)
@@ -66,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     """Load, render and write the images."""
     from brdflab.cluster import ClusterError
     from brdflab.imageio import write_images
-    from brdflab.outputs import check_outputs, output_folder
+    from brdflab.outputs import check_outputs, output_folder, prepare_files
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
     from brdflab.timing import fixed_costs_line, process_seconds
@@ -92,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     # Refuse before rendering: every name this run could write (complete or partial) against every input.
     check_outputs([*output_paths(args.scene, args.output, args.figures, spp),
                       *output_paths(args.scene, args.output, args.figures, 1, partial=True)], scene.inputs)
+    prepare_files(output_paths(args.scene, args.output, args.figures, spp), scene.inputs,
+                  getattr(args, "force", False), "--figures" if args.figures is not None else "-o")
     if not args.quiet:
         print(f"{clean(args.scene, 120)}: {cam.width}×{cam.height}, {spp} spp, {scene.integrator_type}, "
               f"{scene.geometry.triangle_count:,} triangles, {len(scene.emitters)} emitters "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError, clean
-from brdflab.outputs import DEFAULT_REPORTS, check_outputs, index_root, output_folder
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_plugin_option, load_plugins
@@ -38,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
     p.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^64) (default 0)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
+    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
+                   "write (never an input of the run)")
     add_plugin_option(p)
     add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)
@@ -66,7 +68,7 @@ def _resolution(text: str) -> tuple[int, int]:
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
     from brdflab.report.index import write_index
-    from brdflab.report.variance import run_study, summary, write_report
+    from brdflab.report.variance import REPORT_PATTERNS, run_study, summary, write_report
     from brdflab.stats.jobs import validate_specs
 
     load_plugins(args)
@@ -79,17 +81,18 @@ def run(args: argparse.Namespace) -> int:
     resolution = _resolution(args.resolution) if args.resolution else None
     out = args.output or DEFAULT_REPORTS / args.scene.stem
     parent_created = output_folder(out.parent) if args.output else False
-    output_folder(out)
     stem = args.scene.stem
     slug = [n.replace(":", "_") for n in integrators]
-    written = [out / "report.html", out / f"{stem}_reference.png"]
-    written += [out / f"{stem}_{n}_{s}spp{ext}" for n in slug for s in spp for ext in (".exr", ".png")]
-    check_outputs(written, [args.scene, *([args.ref] if args.ref else [])])
+    written = ["report.html", f"{stem}_reference.png"]
+    written += [f"{stem}_{n}_{s}spp{ext}" for n in slug for s in spp for ext in (".exr", ".png")]
+    prepare_folder(out, [*written, *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"],
+                   [args.scene, *([args.ref] if args.ref else []), *args.plugin], args.force)
     with cluster_from_args(args) as cluster:
         study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
                           progress=lambda msg: print(msg, file=sys.stderr), runs=args.runs, resolution=resolution,
                           flip=not args.no_flip, mis_weights=not args.no_mis_weights, cluster=cluster)
     path = write_report(study, out)
+    record_outputs(out, [*written, *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"])
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)

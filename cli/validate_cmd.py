@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from brdflab.cli.argtypes import count
-from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_bsdf_options, add_effort_option, bsdf_spec_from_args, load_plugins
@@ -22,6 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=count(1000), default=200_000,
                    help="samples per chi-square test, at least 1000 (default 200000)")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
+    p.add_argument("--force", action="store_true", help="replace files in the report folder that brdflab did not "
+                   "write")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)
@@ -31,12 +33,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the battery and write the report."""
     from brdflab.errors import BrdflabError
     from brdflab.report.index import write_index
-    from brdflab.report.validation import write_validation_report
+    from brdflab.report.validation import VALIDATION_FILES, write_validation_report
     from brdflab.validate.battery import ALPHAS, THETAS, run_battery
 
     out = args.output or DEFAULT_REPORTS / "validation"
     parent_created = output_folder(out.parent) if args.output else False
-    output_folder(out)
+    prepare_folder(out, list(VALIDATION_FILES), getattr(args, "plugin", None) or [], args.force)
     load_plugins(args)
     if args.bsdf:  # the whole battery on these BSDFs only (no warps)
         specs = [bsdf_spec_from_args(args, name) for name in args.bsdf]
@@ -51,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     with cluster_from_args(args) as cluster:
         bat = run_battery(n=args.samples, progress=print, cluster=cluster, **kwargs)
     path = write_validation_report(bat, out)
+    record_outputs(out, list(VALIDATION_FILES))
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)

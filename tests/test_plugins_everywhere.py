@@ -107,7 +107,7 @@ def test_a_failing_plugin_at_scene_load_is_a_located_error(tmp_path, capsys, cle
 def test_plugin_file_that_is_a_folder_is_named_as_such(tmp_path, capsys):
     (tmp_path / "dir.py").mkdir()
     assert main(["chi2", "--plugin", str(tmp_path / "dir.py"), "--bsdf", "x"]) == 2
-    assert "is a folder" in capsys.readouterr().err
+    assert "plugin file is a directory" in capsys.readouterr().err
 
 
 def test_check_takes_a_plugin(tmp_path, capsys, cleanup):

@@ -125,7 +125,7 @@ def test_cli_chi2_and_validate_reports(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:  # a usage error (argparse): exit status 2, one line
         main(["chi2", "--bsdf", "roughconductor", "--alpha", "-1"])
     assert exc.value.code == 2
-    assert "--alpha: must be a finite number > 0, got -1" in capsys.readouterr().err
+    assert "--alpha: must be a finite number ≥ 1e-06, got -1" in capsys.readouterr().err
 
 
 def test_battery_small_full_run(tmp_path):

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from brdflab.imageio import _atomic_write, write_exr, write_png
+from brdflab.outputs import json_text, write_text
 from brdflab.report import page as html
+
+#: The files :func:`write_check` writes into its folder (checked by :func:`brdflab.outputs.prepare_folder`).
+CHECK_FILES = ("check.json", "user.png", "brdflab.png", "brdflab.exr", "block_map.png", "z_map.png", "check.html")
 
 
 def write_block_map(path: Path, user: np.ndarray, result, title: str = "") -> None:
@@ -16,6 +19,7 @@ def write_block_map(path: Path, user: np.ndarray, result, title: str = "") -> No
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
@@ -46,6 +50,7 @@ def write_z_map(path: Path, result) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     z = result.z_map
@@ -65,7 +70,7 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
     out.mkdir(parents=True, exist_ok=True)
     d = result.to_dict()
     d.update({"scene": str(scene), "renders": [str(p) for p in user_paths]})
-    (out / "check.json").write_text(json.dumps(d, indent=2, default=float))
+    write_text(out / "check.json", json_text(d, indent=2))
     mean_user = np.mean(np.stack(user), axis=0)
     write_png(out / "user.png", mean_user)
     write_png(out / "brdflab.png", result.estimate)
@@ -107,5 +112,5 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
         "the block tests share α/2 by Holm's step-down procedure and the whole-image mean test gets α/2, so the "
         "chance of calling an unbiased render biased is at most α. See brdflab/stats/check.py."))
     path = out / "check.html"
-    path.write_text(html.page(f"brdflab check — {scene.name}", body))
+    write_text(path, html.page(f"brdflab check — {scene.name}", body))
     return path

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from brdflab.validate import chi2 as c2
+from brdflab.validate.guard import checked
 
 #: Fraction of the samples allowed outside the zoomed cos θ′ range.
 ZOOM_TAIL = 0.002
@@ -85,7 +86,10 @@ def sampler_of(result: c2.Chi2Result) -> Sampler | None:
             bsdf = bt.NoJacobianConductor(0.5, alpha if alpha is not None else 0.3)
         else:
             bsdf = bt.make_named_bsdf(name, alpha, params)
-    except Exception:  # noqa: BLE001 - a result we cannot rebuild just gets no detailed view
+        # Through the contract checks: a plugin that broke its contract in the test breaks it here again,
+        # as a PluginFault that view_of turns into "no detailed view", never a crash of the report.
+        bsdf = checked(bsdf)
+    except (Exception, SystemExit):  # noqa: BLE001 - a result we cannot rebuild just gets no detailed view
         return None
     wi1 = c2.incident(theta)
     axis = np.array([0.0, 0.0, 1.0]) if name in ("diffuse", "roughsubstrate/diffuse") else \
@@ -139,15 +143,16 @@ def view_of(result: c2.Chi2Result, n: int = 100_000, seed: int = 0) -> View | No
     s = sampler_of(result)
     if s is None:
         return None
-    if s.axis is None:
-        obs = result.observed
-        if obs is None or result.theta_edges is None or obs.shape[0] != obs.shape[1]:
-            return None
-        return plane_view(result, s, seed)
     try:
-        return direction_view(s, n, seed)
-    except Exception:  # noqa: BLE001 - a plugin that raises already has its verdict; its page just has no view
-        return None
+        if s.axis is None:
+            obs = result.observed
+            if obs is None or result.theta_edges is None or obs.shape[0] != obs.shape[1]:
+                return None
+            return plane_view(result, s, seed)
+        with np.errstate(all="ignore"):
+            return direction_view(s, n, seed)
+    except Exception:  # noqa: BLE001 - a PluginFault or any plugin error: the test already has its verdict;
+        return None  # the page just has no view
 
 
 def verdict(result: c2.Chi2Result, negative: bool) -> tuple[str, str]:
@@ -174,6 +179,7 @@ def figure(result: c2.Chi2Result, view: View, negative: bool = False):
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
@@ -256,6 +262,7 @@ def thumbnail_png(result: c2.Chi2Result, scale: int = 4) -> bytes:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.image
 
     obs, exp = result.observed, result.expected

@@ -76,7 +76,9 @@ def _metrics(x: np.ndarray, r: np.ndarray) -> dict[str, float]:
 def compare(test: np.ndarray, ref: np.ndarray) -> Metrics:
     """Compare ``test`` with ``ref`` (both (H, W, C)); see the module docstring for definitions."""
     test, ref = _check(test, ref)
-    finite = np.isfinite(test).all(axis=2)
+    finite = np.isfinite(test).all(axis=2) & np.isfinite(ref).all(axis=2)
+    if not finite.any():
+        raise ImageError("no pixel is finite in both images: nothing to compare")
     x, r = test[finite], ref[finite]
     overall = _metrics(x, r)
     names = CHANNELS if test.shape[2] == 3 else tuple(str(i) for i in range(test.shape[2]))
@@ -96,6 +98,7 @@ def write_heatmap(path, test: np.ndarray, ref: np.ndarray, title: str = "relativ
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
@@ -119,18 +122,36 @@ def write_heatmap(path, test: np.ndarray, ref: np.ndarray, title: str = "relativ
 
 
 # -- HDR-FLIP ---------------------------------------------------------------------------------------------
-def flip_parameters(ref: np.ndarray) -> dict:
+def flip_parameters(ref: np.ndarray) -> dict | None:
     """HDR-FLIP's exposure range (start, stop, number of exposures) computed once from the reference.
 
     NVIDIA's ``flip_evaluator`` derives c_start/c_stop from the reference's luminance (Andersson et al.
     2021, HDR-FLIP §3); fixing them here makes every test image of a study — any integrator, any spp —
     judged at the same exposures.
+
+    Returns None when HDR-FLIP is undefined for this reference: its largest luminance is below
+    :data:`FLIP_MIN_LUMINANCE` (an all-black, all-negative or all-NaN image). ``flip_evaluator`` places
+    the stop exposure at the median luminance floored at float32's ε (2^-23) and the start exposure at
+    the largest luminance, and ends the whole process (exit status 255, "Start exposure must be smaller
+    than stop exposure") when start > stop; measured: a constant 10⁻⁶ image works, 10⁻⁷ exits.
     """
     import flip_evaluator
 
-    r = np.ascontiguousarray(np.clip(np.nan_to_num(np.asarray(ref, dtype=np.float32)), 0, None))
+    r = _flip_input(ref)
+    if not float((r @ np.array([0.2126, 0.7152, 0.0722], np.float32)).max(initial=0.0)) >= FLIP_MIN_LUMINANCE:
+        return None
     _, _, params = flip_evaluator.evaluate(r, r, "HDR", applyMagma=False, computeMeanError=False)
     return {k: params[k] for k in ("startExposure", "stopExposure", "numExposures")}
+
+
+#: Smallest largest-luminance of a reference for which HDR-FLIP is defined (float32 ε = 1.19e-7, with a margin).
+FLIP_MIN_LUMINANCE = 2e-7
+
+
+def _flip_input(img: np.ndarray) -> np.ndarray:
+    """What FLIP may be given: finite, non-negative float32 (NaN and −∞ → 0, +∞ → the largest float32)."""
+    a = np.nan_to_num(np.asarray(img, dtype=np.float32), nan=0.0, neginf=0.0)
+    return np.ascontiguousarray(np.clip(a, 0, None), dtype=np.float32)
 
 
 def flip_error(test: np.ndarray, ref: np.ndarray, params: dict | None = None, with_map: bool = False):
@@ -141,8 +162,10 @@ def flip_error(test: np.ndarray, ref: np.ndarray, params: dict | None = None, wi
 
     test, ref = _check(test, ref)
     t = np.ascontiguousarray(np.clip(np.nan_to_num(test, nan=0.0, posinf=0.0), 0, None), dtype=np.float32)
-    r = np.ascontiguousarray(np.clip(ref, 0, None), dtype=np.float32)
+    r = _flip_input(ref)
     params = params or flip_parameters(r)
+    if params is None:  # undefined for this reference (see flip_parameters)
+        return (float("nan"), np.full(r.shape[:2], np.nan)) if with_map else float("nan")
     err, mean, _ = flip_evaluator.evaluate(r, t, "HDR", applyMagma=False, parameters=dict(params))
     return (float(mean), np.asarray(err)[..., 0]) if with_map else float(mean)
 
@@ -162,6 +185,7 @@ def write_signed_map(path, test: np.ndarray, ref: np.ndarray, title: str = "sign
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     from brdflab.imageio import _atomic_write

@@ -53,6 +53,7 @@ def write_weight_image(path: Path, share: np.ndarray, title: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     h, w = share.shape

@@ -14,10 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
+from brdflab.outputs import write_text
 from brdflab.report import chi2_views as cv
 from brdflab.validate import chi2 as c2
 from brdflab.validate.battery import Battery, _fmt
 from brdflab.validate.stability import NOTES
+
+#: The files :func:`write_validation_report` may write into its folder (glob patterns; see
+#: :func:`brdflab.outputs.prepare_folder`).
+VALIDATION_FILES = ("index.html", "albedo.png", "chi2_view_*.png")
 
 
 def _png_uri(data: bytes) -> str:
@@ -30,6 +35,7 @@ def _albedo_plot(bat: Battery, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     names = sorted({p.name for p in bat.albedo})
@@ -156,7 +162,7 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                   failures=failures, details=details, views_note=VIEWS_NOTE, rows=rows, consistency=consistency,
                   albedo=albedo, stability=stab, light=_light_transport(bat))
     path = out / "index.html"
-    path.write_text(page)
+    write_text(path, page)
     return path
 
 

@@ -33,6 +33,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,6 +58,10 @@ BIAS_ALPHA = 0.01
 REF_NOISE_WARN = 0.1
 #: Runs of the self-made reference.
 REF_RUNS = 4
+
+#: Files of :func:`write_report` besides ``<stem>_*`` (glob patterns; see :func:`brdflab.outputs.prepare_folder`).
+REPORT_PATTERNS = ("report.html", "results.csv", "results.json", "error_vs_*.png", "error_vs_*.svg",
+                   "relmse_map_*.png", "signed_map_*.png", "mis_weights_*.png")
 
 
 def label(name: str) -> str:
@@ -335,6 +340,16 @@ def run_study(
     max_spp = max(spp_list)
     cam = load_scene(scene_path).camera
     width, height = resolution or (cam.width, cam.height)
+    from brdflab.limits import check_spp, check_work
+
+    for count in spp_list:
+        check_spp(count, "--spp")
+    if cluster is None:  # the study's cost, said before it starts (on a cluster each render checks its own)
+        total = len(integrators) * max_spp * max(runs, 1) + (0 if reference is not None
+                                                              else REF_RUNS * (reference_spp or 4 * max_spp))
+        check_work(total * width * height, workers or os.cpu_count() or 1,
+                   f"the study ({len(integrators)} integrators × {runs} runs × {max_spp:,} spp and the reference "
+                   f"at {width}×{height})", limit_option=None)
     ref_noise, ref_var = math.nan, 0.0
     if reference is not None:
         ref = read_exr(reference)
@@ -643,7 +658,9 @@ def write_tables(study: Study, out: Path) -> None:
             "rows": rows, "speedups": speed, "summary": summary(study),
             "checkpoints": [_clean_dict(c.__dict__) for c in sorted(study.checkpoints,
                                                                   key=lambda c: (c.integrator, c.run, c.spp))]}
-    (out / "results.json").write_text(json.dumps(meta, indent=2))
+    from brdflab.outputs import json_text, write_text
+
+    write_text(out / "results.json", json_text(meta, indent=2))
 
 
 def _clean_dict(d: dict) -> dict:
@@ -655,6 +672,7 @@ def plot_curves(study: Study, out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     paths = []
@@ -699,6 +717,7 @@ def plot_error_maps(study: Study, out: Path) -> dict[str, Path]:
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 

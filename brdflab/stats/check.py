@@ -379,6 +379,49 @@ def _t_tests(diff: np.ndarray, var: np.ndarray, df: np.ndarray, cnt: np.ndarray,
     return tb, 2.0 * stats.t.sf(np.abs(tb), np.broadcast_to(df[..., :3], tb.shape))
 
 
+def check_inputs(user: list[np.ndarray], ref_var: np.ndarray | None = None, user_spp: int | None = None,
+                 names: list[str] | None = None, block: int | None = None, ref: np.ndarray | None = None) -> None:
+    """Refuse inputs that would give a p-value without meaning, before any work.
+
+    Two user renders that are the same image (the same file given twice, or a copy) are not independent
+    estimates: their zero difference would be read as a variance of zero and any difference from brdflab's
+    estimate as a bias; nor is a reference that is one of the renders. A variance must be finite and ≥ 0;
+    a sample count ≥ 1; a block at least 2 pixels and no larger than the image.
+
+    Raises
+    ------
+    ImageError
+        Naming the renders or the variance image.
+    """
+    names = names or [f"render {i + 1}" for i in range(len(user))]
+    for i, u in enumerate(user):
+        j = next((j for j in range(i) if np.shape(user[j]) == np.shape(u)
+                  and np.array_equal(user[j], u, equal_nan=True)), None)
+        if j is not None:
+            raise ImageError(f"'{names[i]}' and '{names[j]}' are the same image: several renders must be "
+                             "independent (different seeds); give one of them only")
+    if ref is not None:
+        same = next((i for i, u in enumerate(user) if np.shape(u) == np.shape(ref)
+                     and np.array_equal(u, ref, equal_nan=True)), None)
+        if same is not None:
+            raise ImageError(f"the reference is the same image as '{names[same]}': a render cannot be checked "
+                             "against itself")
+    if ref_var is not None:
+        v = np.asarray(ref_var)
+        bad = ~np.isfinite(v) | (v < 0)
+        if bad.any():
+            y, x = np.argwhere(bad)[0][:2]
+            raise ImageError(f"the reference variance must be finite and ≥ 0; pixel ({x}, {y}) is "
+                             f"{v[y, x].ravel()[0]:g} ({int(bad.sum())} such values)")
+    if user_spp is not None and not (isinstance(user_spp, (int, np.integer)) and user_spp >= 1):
+        raise ImageError(f"the user's samples per pixel must be an integer ≥ 1, got {user_spp}")
+    if block is not None and user:
+        h, w = np.shape(user[0])[:2]
+        if not 2 <= block <= min(h, w):
+            raise ImageError(f"the block side must be between 2 and the image's smaller side ({min(h, w)} px), "
+                             f"got {block}")
+
+
 def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK, alpha: float = ALPHA,
                  user_spp: int | None = None, levels: int = LEVELS) -> CheckResult:
     """Test whether the user's render(s) ``user`` and brdflab's ``estimate`` have the same expectation.
@@ -414,6 +457,7 @@ def check_images(user: list[np.ndarray], estimate: Estimate, block: int = BLOCK,
     """
     if not user:
         raise ImageError("no user render given")
+    check_inputs(user, estimate.pixel_var, user_spp, block=block)
     shape = estimate.mean.shape
     for u in user:
         if u.shape != shape:
@@ -598,6 +642,15 @@ def run_check(user: list[np.ndarray], scene: Path, integrator: str, spp: int = 3
     ``resolution`` (width, height) replaces the scene camera's (quick checks, tests).
     """
     say = progress or (lambda msg: None)
+    check_inputs(user, ref_var, user_spp, block=block, ref=ref)
+    if ref is None and map_fn is map:  # the estimate's cost, said before it starts (a cluster's jobs: by each)
+        import os
+
+        from brdflab.limits import check_spp, check_work
+
+        h, w = resolution[::-1] if resolution else user[0].shape[:2]
+        check_work(runs * check_spp(spp) * h * w, workers or os.cpu_count() or 1,
+                   f"brdflab's estimate ({runs} runs × {spp:,} spp at {w}×{h})", limit_option=None)
     t0 = time.perf_counter()
     if ref is not None:
         est = Estimate(np.asarray(ref, dtype=np.float64), None,

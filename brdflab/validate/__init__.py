@@ -96,8 +96,10 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
     >>> r.passed, r.observed.shape == r.expected.shape
     (True, True)
     """
+    from brdflab.limits import check_test_arguments
     from brdflab.validate.guard import bsdf_params, describe
 
+    theta, samples, threshold = check_test_arguments(theta, samples, threshold)
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     if seed is None:
@@ -118,6 +120,9 @@ def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: 
     >>> r.passed
     True
     """
+    from brdflab.limits import check_test_arguments
+
+    _, samples, threshold = check_test_arguments(None, samples, threshold)
     seed = test_seed("warp", name) if seed is None else seed
     return _c2.warp_test(name, warp, pdf, int(samples), seed=seed,
                          threshold=SIGNIFICANCE if threshold is None else threshold)

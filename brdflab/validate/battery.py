@@ -467,6 +467,10 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
     >>> len(bat.chi2), bat.passed
     (2, True)
     """
+    from brdflab.limits import check_memory
+
+    # Each test holds its n samples (directions, pdfs, weights, binning temporaries): ~200 bytes per sample.
+    check_memory(200 * n, f"{n:,} samples per test")
     params = dict(params or {})
     entries = resolve_bsdfs(bsdfs, make)
     tests = plan(entries, warp_names, alphas, thetas, params)

@@ -156,6 +156,9 @@ def consistency_test(bsdf, theta: float = 45.0, samples: int = 100_000, seed: in
     >>> r.passed, r.max_weight_error < 1e-12
     (True, True)
     """
+    from brdflab.limits import check_test_arguments
+
+    theta, samples, _ = check_test_arguments(theta, samples)
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     if seed is None:

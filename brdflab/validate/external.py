@@ -42,6 +42,7 @@ A malformed file raises :class:`~brdflab.errors.BrdflabError` with ``file:line``
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -60,6 +61,8 @@ COLUMN_RTOL = 1e-2
 COLUMN_FRACTION = 1e-3
 #: Fewest samples per ω_i group for a meaningful chi-square test.
 MIN_GROUP = 50
+#: Most ω_i groups one file may have (each is a chi-square test of its own).
+MAX_GROUPS = 10_000
 
 DIRECTION_WARPS = ("uniform_sphere", "uniform_hemisphere", "cosine_hemisphere", "beckmann")
 
@@ -111,24 +114,18 @@ def read_samples(path: str | Path) -> Samples:
     >>> s.wo.shape, s.pdf.tolist()
     ((2, 3), [0.318, 0.2546])
     """
+    from brdflab.limits import check_input, read_input
+
     path = Path(path)
-    if not path.exists():
-        raise BrdflabError(f"samples file '{path}' not found")
+    # The one input check (limits.check_input/read_input): not found, not a regular file (a directory, a FIFO
+    # that would block, /dev/zero that never ends) and BRDFLAB_MAX_INPUT_MB, before a byte is read.
     if path.suffix in (".npy", ".npz"):
-        try:
-            arr = np.load(path, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise BrdflabError(f"cannot read as {path.suffix}: {_short(str(exc), 60)}", file=path) from None
-        if path.suffix == ".npz":
-            keys = list(arr.files)
-            key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
-            if key is None:
-                raise BrdflabError(f"expected an array named 'samples' (found {', '.join(keys[:5]) or 'none'})",
-                                   file=path)
-            arr = arr[key]
-        if arr.ndim != 2 or arr.shape[1] not in ALLOWED or not np.issubdtype(arr.dtype, np.number):
-            raise BrdflabError(f"expected a numeric (N, k) array with k = {EXPECTED}; got shape {arr.shape}",
-                               file=path)
+        check_input(path, "samples file")
+        arr = _load_array(path)
+        if arr.ndim != 2 or arr.shape[1] not in ALLOWED or not (np.issubdtype(arr.dtype, np.floating)
+                                                                 or np.issubdtype(arr.dtype, np.integer)):
+            raise BrdflabError(f"expected a real numeric (N, k) array with k = {EXPECTED}; got "
+                               f"{_short(str(arr.dtype), 20)} shape {arr.shape}", file=path)
         data = arr.astype(np.float64)
         bad = ~np.isfinite(data).all(axis=1)
         if bad.any():
@@ -136,7 +133,7 @@ def read_samples(path: str | Path) -> Samples:
         return _columns(str(path), data, np.arange(len(data)), arr.shape[1])
     rows, lines, ncol, first = [], [], None, None
     try:
-        text = path.read_text(encoding="utf-8", errors="strict")
+        text = read_input(path, "samples file").decode("utf-8", errors="strict")
     except UnicodeDecodeError:
         raise BrdflabError("not a text file (expected whitespace-separated numbers; binary data: use .npy)",
                            file=path) from None
@@ -164,6 +161,53 @@ def read_samples(path: str | Path) -> Samples:
     return _columns(str(path), np.array(rows), np.array(lines), ncol)
 
 
+def _load_array(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` or ``.npz`` samples file, never unpickled (an object array is refused).
+
+    Before anything is allocated, the array's header is read and its size compared with the bytes that
+    really follow it (a 1 KB file whose header claims 10⁹ rows would otherwise make NumPy allocate 48 GB)
+    and with the memory limit (a zip bomb: a small ``.npz`` that decompresses to gigabytes).
+    """
+    import zipfile
+
+    try:
+        if path.suffix == ".npz":
+            with zipfile.ZipFile(path) as z:
+                infos = {i.filename[:-4] if i.filename.endswith(".npy") else i.filename: i for i in z.infolist()}
+                keys = list(infos)
+                key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
+                if key is None:
+                    raise BrdflabError(f"expected an array named 'samples' (found "
+                                       f"{', '.join(_short(k) for k in keys[:5]) or 'none'})", file=path)
+                with z.open(infos[key]) as f:
+                    _check_array_header(f, infos[key].file_size, path, f"the array '{_short(key)}' of {path.name}")
+            with np.load(path, allow_pickle=False) as z:
+                return z[key]
+        with open(path, "rb") as f:
+            _check_array_header(f, os.fstat(f.fileno()).st_size, path, "the array")
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise BrdflabError(f"cannot read as {path.suffix}: {_short(str(exc), 60)}", file=path) from None
+
+
+def _check_array_header(f, size: int, path: Path, what: str) -> None:
+    """Check the ``.npy`` header at the start of ``f`` (``size`` bytes in all) before the array is read."""
+    from numpy.lib import format as npy
+
+    from brdflab.limits import check_memory
+
+    version = npy.read_magic(f)
+    read = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+    shape, _, dtype = read(f)
+    if dtype.hasobject:
+        raise BrdflabError(f"{what} is an object array (it would need unpickling); save numbers", file=path)
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > size - f.tell():
+        raise BrdflabError(f"{what}: the header claims shape {tuple(shape)} ({need:,} bytes), but only "
+                           f"{max(size - f.tell(), 0):,} bytes follow", file=path)
+    check_memory(need, f"{what} (shape {tuple(shape)})")
+
+
 def _is_float(t: str) -> bool:
     try:
         float(t)
@@ -173,19 +217,36 @@ def _is_float(t: str) -> bool:
 
 
 def group_by_wi(wi: np.ndarray, tol: float = WI_TOLERANCE) -> list[np.ndarray]:
-    """Index arrays of the samples sharing one ω_i (components equal within ``tol``), in file order."""
-    key = np.round(wi / tol).astype(np.int64)
-    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    """Index arrays of the samples sharing one ω_i (components equal within ``tol``), in file order.
+
+    Distinct ω_i are cells of a grid of side ``tol``; two cells are merged when their representatives lie
+    within ``tol`` of each other (a value on a cell boundary). The close pairs come from a k-d tree (each
+    representative has at most 26 in neighbouring cells) and the merges are the connected components of
+    that graph, so the cost is O(n log n) in the number of distinct ω_i (10⁶ distinct ω_i in seconds).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    wi = np.asarray(wi, dtype=np.float64)
+    if len(wi) == 0:
+        return []
+    cell = np.floor(wi / tol)
+    if not np.isfinite(cell).all() or np.abs(cell).max() >= 2**52:
+        raise BrdflabError(f"ω_i components must be finite and below {2**52 * tol:.3g} in magnitude")
+    _, first, inv = np.unique(cell.astype(np.int64), axis=0, return_index=True, return_inverse=True)
     inv = inv.ravel()
-    # Merge keys that round differently but lie within tol (a value on a rounding boundary).
-    reps = wi[first]
-    parent = np.arange(len(reps))
-    for i in range(len(reps)):
-        close = np.nonzero(np.abs(reps - reps[i]).max(axis=1) <= tol)[0]
-        parent[close] = min(parent[i], parent[close].min())
-    labels = parent[inv]
-    order = sorted(np.unique(labels), key=lambda g: int(np.argmax(labels == g)))
-    return [np.nonzero(labels == g)[0] for g in order]
+    n = len(first)
+    pairs = cKDTree(wi[first]).query_pairs(tol, p=np.inf, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
+    labels = comp[inv]
+    # Groups in the order of their first sample in the file.
+    _, first_of = np.unique(labels, return_index=True)
+    order = np.argsort(first_of, kind="stable")
+    sorter = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[sorter], np.arange(len(first_of) + 1))
+    return [sorter[bounds[g]:bounds[g + 1]] for g in order]
 
 
 @dataclass
@@ -513,6 +574,10 @@ def check_samples(samples: str | Path | Samples, against, *, alpha: float | None
     if seed is None:
         seed = test_seed("external", Path(s.path).name, name, alpha, params)
     groups = [np.arange(len(s.wo))] if kind == "warp" else group_by_wi(s.wi)
+    if len(groups) > MAX_GROUPS:  # bounded work, and each test needs MIN_GROUP samples of one ω_i
+        raise BrdflabError(f"{len(groups):,} distinct ω_i; at most {MAX_GROUPS:,} can be tested, each with at least "
+                           f"{MIN_GROUP} samples: write many samples per ω_i (e.g. 10⁴ for each of a few ω_i)",
+                           file=s.path)
     thr = c2.sidak(threshold, len(groups))
     notes, fit = _parameters(against, kind, alpha, params, make)
     out = []

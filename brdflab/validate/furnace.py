@@ -269,9 +269,12 @@ def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, se
     >>> res.passed, [round(p.quadrature, 2) for p in res]
     (True, [1.0, 0.92])
     """
+    from brdflab.limits import check_test_arguments
     from brdflab.validate.guard import bsdf_params
 
     thetas = (theta,) if theta is not None else tuple(thetas)
+    check_test_arguments(None, samples)
+    thetas = tuple(check_test_arguments(t, samples)[0] for t in thetas)
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     base = test_seed("furnace", bsdf_identity(bsdf), params) if seed is None else seed

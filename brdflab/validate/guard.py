@@ -113,7 +113,7 @@ class CheckedBSDF:
                 return getattr(self.inner, method)(*args)
         except PluginFault:
             raise
-        except Exception as exc:  # a plugin's own bug: reported as a verdict
+        except (Exception, SystemExit) as exc:  # a plugin's own bug (even sys.exit()): reported as a verdict
             msg = f"{type(exc).__name__}: {exc}"
             msg = msg if len(msg) <= 160 else msg[:157] + "..."
             wi = args[0][0] if len(args) and len(args[0]) else None
@@ -122,10 +122,14 @@ class CheckedBSDF:
 
     def _array(self, method, value, shape, wi, other, what="", nonnegative=True, other_name="wo"):
         try:
-            a = np.asarray(value, dtype=np.float64)
+            raw = np.asarray(value)
+            if raw.dtype.kind not in "biuf":  # complex, strings, objects: never silently converted
+                raise TypeError
+            a = raw.astype(np.float64)
         except (TypeError, ValueError):
-            raise self.fault(method, f"returned {type(value).__name__}{what}, expected an array of shape {shape}") \
-                from None
+            kind = f" of {value.dtype}" if hasattr(value, "dtype") else ""
+            raise self.fault(method, f"returned {type(value).__name__}{kind}{what}, expected an array of real numbers "
+                             f"of shape {shape}") from None
         if a.shape != shape:
             first = (wi[0], other[0], other_name) if len(wi) and len(other) else ()
             raise self.fault(method, f"returned shape {a.shape}{what}, expected {shape}", *first)

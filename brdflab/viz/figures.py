@@ -16,6 +16,7 @@ def _plt():
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
     import matplotlib.pyplot as plt
 
     return plt

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from brdflab.errors import BrdflabError
 
 
@@ -127,6 +129,15 @@ def resolve(specs: list[str], alphas: list[float] | None = None, params: list[st
 
 def build(spec: BSDFSpec):
     """The BSDF object of ``spec`` (through the plugin registry; ``type/lobe`` selects one lobe)."""
+    from brdflab.limits import check_alpha
+    from brdflab.plugins import is_builtin
     from brdflab.validate.battery import make_named_bsdf
+    from brdflab.validate.guard import SceneCheckedBSDF
 
-    return make_named_bsdf(spec.name, spec.alpha, spec.params)
+    alpha = spec.params.get("alpha", spec.alpha)
+    if alpha is not None and np.ndim(alpha) == 0:
+        check_alpha(alpha, f"{spec.name}: alpha")
+    bsdf = make_named_bsdf(spec.name, spec.alpha, spec.params)
+    # A plugin's values are checked on every call (finite, ≥ 0, real, the right shape): a NaN is an error
+    # naming the plugin and the direction, never drawn as f = 0.
+    return bsdf if is_builtin(spec.name.partition("/")[0]) else SceneCheckedBSDF(bsdf)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from brdflab.errors import BrdflabError, clean
 from brdflab.viz import coords, figures, views
 
 VIEWS = ("polar", "lobe", "slice", "albedo", "sphere")
@@ -63,6 +64,40 @@ def _write_csv(path: Path, comments: list[str], header: list[str], columns: list
         w.writerows([[f"{x:.9g}" for x in row] for row in rows])
 
 
+def plot_files(views: tuple[str, ...], n_bsdfs: int) -> list[str]:
+    """The names :func:`write_plots` writes into its folder for ``views`` of ``n_bsdfs`` BSDFs (checked by
+    :func:`brdflab.outputs.prepare_folder` before anything is computed)."""
+    from brdflab.viz.sphere import LIGHTS
+
+    names = ["index.html"]
+    for v in views:
+        names += [f"{v}.png", f"{v}.svg"] + ([f"{v}.csv"] if v != "sphere" else [])
+        if v == "sphere":
+            names += [f"sphere_{k}_{li}.exr" for k in range(n_bsdfs) for li in range(len(LIGHTS))]
+    return names
+
+
+def check_plot_work(opts: PlotOptions, n_bsdfs: int) -> None:
+    """Refuse (before the work) a plot whose Monte Carlo albedo or lit spheres would take longer than
+    ``BRDFLAB_MAX_HOURS`` at brdflab's optimistic rate (:func:`brdflab.limits.check_work`), and check the
+    memory of the albedo's sample batch."""
+    import os
+
+    from brdflab.limits import check_memory, check_work
+    from brdflab.viz.sphere import SPP_FACTOR
+
+    if "albedo" in opts.views:
+        check_memory(opts.samples * 8 * 3 * 8, f"{opts.samples:,} albedo samples per angle")
+        check_work(opts.samples * len(views.ALBEDO_THETAS) * n_bsdfs, 1,
+                   f"the Monte Carlo albedo ({opts.samples:,} samples × {len(views.ALBEDO_THETAS)} angles × "
+                   f"{n_bsdfs} BSDF(s))", limit_option=None)
+    if "sphere" in opts.views:
+        spp = opts.sphere_spp * sum(SPP_FACTOR.values())
+        check_work(spp * opts.sphere_size**2 * n_bsdfs, opts.workers or os.cpu_count() or 1,
+                   f"the lit spheres ({opts.sphere_size}² pixels × {spp:,} spp × {n_bsdfs} BSDF(s))",
+                   limit_option=None)
+
+
 def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | None = None,
                 progress=None) -> Path:
     """Write the views of ``bsdfs`` (legend ``labels``) into ``out``; return the path of ``index.html``."""
@@ -71,18 +106,22 @@ def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | N
     opts = opts or PlotOptions()
     say = progress or (lambda msg: None)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
-        cards = _write_all(bsdfs, labels, tmp, opts, say)
-        (tmp / "index.html").write_text(render(
-            "plot.html.j2", title="brdflab plot: " + ", ".join(labels), cards=cards, labels=labels, opts=opts,
-            polar_note=POLAR_NOTE, folder=tmp))
-        out.mkdir(exist_ok=True)
-        for p in sorted(tmp.iterdir()):
-            os.replace(p, out / p.name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+        try:
+            cards = _write_all(bsdfs, labels, tmp, opts, say)
+            (tmp / "index.html").write_text(render(
+                "plot.html.j2", title="brdflab plot: " + ", ".join(labels), cards=cards, labels=labels, opts=opts,
+                polar_note=POLAR_NOTE, folder=tmp))
+            out.mkdir(exist_ok=True)
+            for p in sorted(tmp.iterdir()):
+                os.replace(p, out / p.name)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    except OSError as exc:  # the folder was removed or made read-only during the run, a full disk …
+        reason = clean(exc.strerror or exc, 80)
+        raise BrdflabError(f"cannot write the plots into '{clean(out, 100)}': {reason}") from None
     return out / "index.html"
 
 
