@@ -41,6 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=count(1, 256), help="worker processes (default: all cores)")
     p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
                    "check-<stem>/ beside the first render)")
+    p.add_argument("--where-spp", type=count(0, 4096), default=8, metavar="N",
+                   help="samples per pixel of the auxiliary renders that say, for a biased render, which materials, "
+                   "emitters and sampling strategy the flagged regions follow (default 8; 0: off)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
     add_plugin_option(p)
     add_cluster_options(p)
@@ -90,8 +93,13 @@ def run(args: argparse.Namespace) -> int:
                         args.alpha, 1 if cluster else args.workers, progress=say, user_spp=user_spp,
                         map_fn=map if cluster is None else cluster.imap, levels=args.levels)
     out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
-    page = write_check(out, args.renders, images, res, args.scene)
+    from brdflab.stats.attribution import attribute_check, attribution_lines
+
+    att = attribute_check(res, images, args.scene, integrator, args.seed, args.where_spp, args.workers, say)
+    page = write_check(out, args.renders, images, res, args.scene, attribution=att)
     print(res.verdict())
+    for line in [] if att is None or args.quiet else attribution_lines(att):
+        print(line)
     say(f"cost: {res.seconds:.1f} s; wrote {page} and {out / 'check.json'}")
     return 0 if res.consistent else 1
 
