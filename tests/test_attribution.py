@@ -45,14 +45,24 @@ def _bsdf_bug(monkeypatch):
     monkeypatch.setattr(dm, "bsdf_rays", bug)
 
 
-def _attribute(scene, integrator: str, bug, monkeypatch, seed: int = 0):
-    est = Estimate.from_runs([_render(scene, "direct_mis", run_seed(seed, k, "reference")) for k in range(3)],
-                             run_spp=32)
-    aux = A.render_aux(scene, 16, seed, RES, 1)
+_SETUP: dict = {}
+
+
+def _setup(scene, seed: int):
+    """brdflab's estimate (3 × 32 spp direct_mis) and the auxiliary images (16 spp), once per scene."""
+    if (scene, seed) not in _SETUP:
+        est = Estimate.from_runs([_render(scene, "direct_mis", run_seed(seed, k, "reference")) for k in range(3)],
+                                 run_spp=32)
+        _SETUP[scene, seed] = est, A.render_aux(scene, 16, seed, RES, 1)
+    return _SETUP[scene, seed]
+
+
+def _attribute(scene, integrator: str, bug, monkeypatch, seed: int = 0, user_seed: int = 0):
+    est, aux = _setup(scene, seed)
     with monkeypatch.context() as m:
         if bug is not None:
             bug(m)
-        user = _render(scene, integrator, run_seed(seed, 0, "check"))
+        user = _render(scene, integrator, run_seed(seed, user_seed, "check"))
     res = check_images([user], est, user_spp=32)
     return res, A.attribute(res, [user], aux, integrator, estimate=est.mean)
 
@@ -74,7 +84,7 @@ def test_shadow_bug_follows_emitter_sampled_light(monkeypatch):
 
 def test_shadow_bug_in_direct_ems_names_light_sampling(monkeypatch):
     """The student's case: direct_ems with the shadow bug (every sample comes from light sampling)."""
-    res, att = _attribute(CBOX, "direct_ems", _shadow_bug, monkeypatch, seed=1)
+    res, att = _attribute(CBOX, "direct_ems", _shadow_bug, monkeypatch, user_seed=1)
     assert not res.consistent
     f = att["whole_image"]["finding"]
     assert "light sampling" in f and "BSDF-sampled" not in f, f
@@ -89,9 +99,28 @@ def test_bsdf_bug_follows_bsdf_sampled_light(monkeypatch):
 
 
 def test_unbiased_render_is_not_attributed(monkeypatch):
-    res, att = _attribute(SPHERES, "direct_mis", None, monkeypatch, seed=2)
+    res, att = _attribute(SPHERES, "direct_mis", None, monkeypatch, user_seed=2)
     assert res.consistent
     assert "nothing definite" in att["whole_image"]["finding"]
+
+
+def test_one_emitter_wrong_is_named():
+    """Two area lights; the user's renderer halves the radiance of emitter 1 only."""
+    from brdflab.render import render
+    from brdflab.stats.jobs import load_for
+
+    scene, res = ROOT / "scenes" / "lights" / "polygon_lights_ems.xml", (96, 72)
+    est = Estimate.from_runs([run_job(RenderJob(scene, "direct_ems", 16, run_seed(3, k, "reference"), res, 1))[0]
+                              for k in range(3)], run_spp=16)
+    aux = A.render_aux(scene, 8, 3, res, 1)
+    s = load_for(RenderJob(scene, "direct_ems", 16, 0, res, 1))
+    s.emitters[1].scale *= 0.5
+    user, _ = render(s, spp=16, seed=run_seed(3, 0, "check"), workers=1)
+    r = check_images([user], est, user_spp=16)
+    att = A.attribute(r, [user], aux, "direct_ems", estimate=est.mean)
+    assert not r.consistent
+    assert "only the light of area #1" in att["whole_image"]["finding"], att["whole_image"]
+    assert len(att["whole_image"]["emitter_fit"]["coef"]) == 2
 
 
 def test_fit_false_findings_and_power_synthetic():

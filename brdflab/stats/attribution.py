@@ -260,8 +260,9 @@ ALL_LIGHT = {
                   "radiance) or at a wrong MIS weight sum"}
 
 
-def interpret(fit: Fit | None, sign: int, integrator: str = "") -> str:
-    """One phrase: which part the difference (of ``sign`` −1 deficit, +1 excess) follows, if any (see module)."""
+def interpret(fit: Fit | None, sign: int, integrator: str = "", lit_share: float | None = None) -> str:
+    """One phrase: which part the difference (of ``sign`` −1 deficit, +1 excess) follows, if any (see module);
+    ``lit_share`` is the difference relative to brdflab's direct light E + B there."""
     if fit is None:
         return "too few cells to fit"
     word = "deficit" if sign < 0 else "excess"
@@ -276,7 +277,8 @@ def interpret(fit: Fit | None, sign: int, integrator: str = "") -> str:
         lo, hi = sorted((abs(a), abs(b)))
         if hi > 0 and lo / hi > 0.5:
             hint = ALL_LIGHT.get(integrator.split(":")[0], "")
-            return (f"the {word} follows all direct light (about {100 * (a + b) / 2:+.0f} % of it)"
+            size = "" if lit_share is None else f" ({100 * lit_share:+.0f} % of it)"
+            return (f"the {word} follows all direct light{size}"
                     + (f": {hint}" if hint else ""))
         return f"the {word} follows both parts unequally: nothing definite"
     return "nothing definite (neither part, or both with opposite signs)"
@@ -317,10 +319,14 @@ def describe_region(mask: np.ndarray, d: np.ndarray, y: np.ndarray, aux: AuxImag
         cell = max(2, cell // 2)
     fit = fit_cells(d, [aux.emitter_part, aux.bsdf_part], ["E", "B"], lit, cell)
     ys = float(y[mask].sum())
+    direct = float(aux.emitter_part[lit].sum() + aux.bsdf_part[lit].sum())
+    lit_share = float(d[lit].sum()) / direct if direct > 0 else None
     out = {"pixels": int(mask.sum()), "relative_difference": float(d[mask].sum()) / ys if ys > 0 else None,
            "materials": mats[:4], "emitters": ems,
            "emitter_part_share": _part_share(aux, lit),
-           "cell": cell, "fit": None if fit is None else fit.to_dict(), "finding": interpret(fit, sign, integrator)}
+           "cell": cell, "fit": None if fit is None else fit.to_dict(),
+           "finding": interpret(fit, sign, integrator, lit_share),
+           "relative_to_direct_light": lit_share}
     if len(aux.emitter_ids) >= 2:
         names = [aux.emitter_labels[e] for e in aux.emitter_ids]
         efit = fit_cells(d, list(aux.per_emitter), names, lit, cell)
@@ -328,7 +334,8 @@ def describe_region(mask: np.ndarray, d: np.ndarray, y: np.ndarray, aux: AuxImag
             out["emitter_fit"] = efit.to_dict()
             k = lone_emitter(efit, sign)
             if k is not None:
-                out["finding"] += f"; only the light of {names[k]} is {'missing' if sign < 0 else 'in excess'}"
+                out["finding"] += (f"; by emitter: only the light of {names[k]} is "
+                                   f"{'missing' if sign < 0 else 'in excess'}")
     return out
 
 
@@ -402,7 +409,8 @@ def _list_text(items: list[dict]) -> str:
 def attribution_lines(att: dict, printed: int = PRINTED) -> list[str]:
     """A few lines for the command line: the whole image and the largest ``printed`` regions."""
     w = att["whole_image"]
-    lines = [f"where and what (auxiliary renders, {att['aux_spp']} spp; E = emitter-sampled, B = BSDF-sampled "
+    lines = [f"where and what (auxiliary renders, {att['aux_spp']} spp, {att['aux_seconds']:.1f} s; E = "
+             "emitter-sampled, B = BSDF-sampled "
              f"light): whole image: {_fit_text(w['fit'])}: {w['finding']}"]
     for i, r in enumerate(att["regions"][:printed], 1):
         rel = "" if r["relative_difference"] is None else f" {100 * r['relative_difference']:+.1f} %"
