@@ -168,3 +168,9 @@ def test_check_cli_prints_where_and_what(tmp_path, monkeypatch, capsys):
     d = json.loads((tmp_path / "c" / "check.json").read_text())
     assert d["attribution"]["whole_image"]["fit"]["cells"] > 10
     assert "Where and what" in (tmp_path / "c" / "check.html").read_text()
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    assert doctest.testmod(A).failed == 0

@@ -153,3 +153,9 @@ def test_cli_exit_codes(tmp_path, capsys):
     assert main(["chi2", "--samples", str(good), "--against-emitter", f"{POLY}:7", "-o", str(tmp_path / "r4")]) == 2
     assert "out of range" in capsys.readouterr().err
     assert not (tmp_path / "r3").exists() and not (tmp_path / "r4").exists()
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    assert doctest.testmod(ES).failed == 0

@@ -49,7 +49,7 @@ CELL = 8
 LEVEL = 0.01
 #: Fewest cells for a fit.
 MIN_CELLS = 6
-#: Emitters rendered one by one (the brightest by power); the rest are "other emitters".
+#: Emitters rendered one by one (the brightest by power); the others are left out of the emitter shares and fit.
 MAX_EMITTERS = 8
 #: Regions reported (largest first); printed on the command line: :data:`PRINTED`.
 MAX_REGIONS = 10
@@ -143,13 +143,12 @@ def render_aux(scene_path: Path, spp: int = AUX_SPP, seed: int = 0, resolution: 
     power = np.array([_power(e) for e in scene.emitters])
     ids = sorted(np.argsort(-power, kind="stable")[:MAX_EMITTERS].tolist()) if n > 1 else list(range(n))
     per = []
-    for e in ids if n > 1 else []:
-        s = load_for(job)
+    for e in ids if n > 1 else []:  # one scene: only the selection (and the fused light set built from it) changes
         pmf = np.zeros(n)
         pmf[e] = 1.0
-        s.emitter_pmf, s.emitter_cdf = pmf, np.cumsum(pmf)
-        s.__dict__.pop("_area_light_set", None)
-        img, _ = render(s, spp=spp, seed=job.seed + e, workers=workers)
+        scene.emitter_pmf, scene.emitter_cdf = pmf, np.cumsum(pmf)
+        scene.__dict__.pop("_area_light_set", None)
+        img, _ = render(scene, spp=spp, seed=job.seed + e, workers=workers)
         per.append(_lum(img))
         say(f"where-and-what: light of emitter {e} rendered")
     if n == 1:
