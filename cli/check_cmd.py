@@ -43,6 +43,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=count(1, 256), help="worker processes (default: all cores)")
     p.add_argument("-o", "--output", type=Path, help="output folder for check.html/check.json (default: "
                    "check-<stem>/ beside the first render)")
+    p.add_argument("--where-spp", type=count(0, 4096), default=8, metavar="N",
+                   help="samples per pixel of the auxiliary renders that say, for a biased render, which materials, "
+                   "emitters and sampling strategy the flagged regions follow (default 8; 0: off)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
     p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
                    "write (never an input of the run)")
@@ -99,9 +102,14 @@ def run(args: argparse.Namespace) -> int:
         res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
                         args.alpha, 1 if cluster else args.workers, progress=say, user_spp=user_spp,
                         map_fn=map if cluster is None else cluster.imap, levels=args.levels)
-    page = write_check(out, args.renders, images, res, args.scene)
+    from brdflab.stats.attribution import attribute_check, attribution_lines
+
+    att = attribute_check(res, images, args.scene, integrator, args.seed, args.where_spp, args.workers, say)
+    page = write_check(out, args.renders, images, res, args.scene, attribution=att)
     record_outputs(out, list(CHECK_FILES))
     print(res.verdict())
+    for line in [] if att is None or args.quiet else attribution_lines(att):
+        print(line)
     say(f"cost: {res.seconds:.1f} s; wrote {page} and {out / 'check.json'}")
     return 0 if res.consistent else 1
 

@@ -38,6 +38,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--against", metavar="NAME",
                    help="with --samples FILE: the BSDF (built-in or plugin type) or warp (beckmann, cosine_hemisphere, "
                    "uniform_hemisphere, uniform_sphere) the file's samples should follow")
+    p.add_argument("--against-emitter", metavar="SCENE.xml[:INDEX]",
+                   help="with --samples FILE: light samples (one line 'x y n pdf measure [L]' per sample, world "
+                   "space; measure 0 = per area, 1 = per sr) checked against emitter INDEX of the scene (0-based), "
+                   "or its whole light with the scene's emitter selection (docs/external-samples.md)")
     p.add_argument("-n", "--count", type=count(1000), default=None, metavar="N",
                    help="samples per test when brdflab samples, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
@@ -82,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
 
     if isinstance(args.samples, str):
         return run_samples_file(args)
-    if args.against:
-        raise BrdflabError("--against NAME needs --samples FILE (the samples to check)")
+    if args.against or args.against_emitter:
+        raise BrdflabError("--against/--against-emitter need --samples FILE (the samples to check)")
     if (args.bsdf is None) == (args.warp is None):
         raise BrdflabError("chi2 needs exactly one of --bsdf NAME or --warp NAME (or --samples FILE --against NAME)")
     n = _count(args)
@@ -124,6 +128,8 @@ def run_samples_file(args: argparse.Namespace) -> int:
     from brdflab.validate.battery import WARPS
     from brdflab.validate.external import check_samples
 
+    if args.against_emitter:
+        return run_emitter_samples(args)
     if not args.against:
         raise BrdflabError("--samples FILE needs --against NAME (a BSDF or warp, e.g. --against beckmann --alpha 0.1)")
     if args.bsdf or args.warp or args.theta or args.full or args.count is not None:
@@ -160,4 +166,34 @@ def run_samples_file(args: argparse.Namespace) -> int:
         write_index(root)
     bad = [g for g in res.groups if not g.passed]
     print(("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.groups)} wi group(s) FAILED") + f"; report: {path}")
+    return 0 if res.passed else 1
+
+
+def run_emitter_samples(args: argparse.Namespace) -> int:
+    """``chi2 --samples FILE --against-emitter SCENE[:INDEX]``: exit 0 if the light samples pass, 1 if not."""
+    from brdflab.errors import BrdflabError
+    from brdflab.scene.loader import load_scene
+    from brdflab.validate.emitter_samples import check_emitter_samples, parse_target, write_emitter_report
+
+    if args.against or args.bsdf or args.warp or args.theta or args.full or args.count is not None or args.alpha \
+            or args.param:
+        raise BrdflabError("--samples FILE --against-emitter SCENE takes no BSDF, warp or count options")
+    scene_path, index = parse_target(args.against_emitter)
+    load_plugins(args)
+    scene = load_scene(scene_path)
+    out = args.output or DEFAULT_REPORTS / f"chi2_emitter_samples_{Path(args.samples).stem}"
+    parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
+    output_folder(out)
+    res = check_emitter_samples(args.samples, scene, index, target=args.against_emitter)
+    print(f"{res.path}: {res.samples} light samples against {res.target}")
+    for line in res.messages():
+        print(line)
+    path = write_emitter_report(res, out)
+    root = index_root(out, args.output is not None, parent_created)
+    if root is not None:
+        from brdflab.report.index import write_index
+
+        write_index(root)
+    bad = [c for c in res.checks if not c.passed]
+    print(("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.checks)} check(s) FAILED") + f"; report: {path}")
     return 0 if res.passed else 1

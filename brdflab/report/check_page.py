@@ -65,11 +65,15 @@ def write_z_map(path: Path, result) -> None:
     plt.close(fig)
 
 
-def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], result, scene: Path) -> Path:
-    """Write ``check.json``, the images, maps and ``check.html`` into ``out``; return the page path."""
+def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], result, scene: Path,
+                attribution: dict | None = None) -> Path:
+    """Write ``check.json``, the images, maps and ``check.html`` into ``out``; return the page path.
+    ``attribution``: the where-and-what of :func:`brdflab.stats.attribution.attribute` (if any)."""
     out.mkdir(parents=True, exist_ok=True)
     d = result.to_dict()
     d.update({"scene": str(scene), "renders": [str(p) for p in user_paths]})
+    if attribution is not None:
+        d["attribution"] = attribution
     write_text(out / "check.json", json_text(d, indent=2))
     mean_user = np.mean(np.stack(user), axis=0)
     write_png(out / "user.png", mean_user)
@@ -103,6 +107,10 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
     body += html.section("Images — click to zoom all", html.image_row(
         [(out / "user.png", "your render" + (f" (mean of {len(user)})" if len(user) > 1 else "")),
          (out / "brdflab.png", "brdflab's estimate"), (out / "block_map.png", "significant blocks")]))
+    if attribution is not None:
+        from brdflab.stats.attribution import attribution_section
+
+        body += html.section("Where and what", attribution_section(attribution))
     body += html.section("Block statistics", html.image_row([(out / "z_map.png", "signed block t-map")], cls="plot"))
     if flagged:
         body += html.section(f"Flagged blocks ({len(result.flagged)}, most significant first)", html.table(

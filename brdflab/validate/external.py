@@ -114,6 +114,20 @@ def read_samples(path: str | Path) -> Samples:
     >>> s.wo.shape, s.pdf.tolist()
     ((2, 3), [0.318, 0.2546])
     """
+    data, lines, ncol = read_table(path, ALLOWED, EXPECTED)
+    return _columns(str(path), data, lines, ncol)
+
+
+def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Read a numeric table in the samples-file conventions (text with ``#`` comments, ``.npy``, or ``.npz``
+    with the key ``samples``): (N, k) float64 data, the file line (text) or row (arrays) of each sample, and
+    k, which must be one of ``allowed`` (``expected`` says so in the error).
+
+    Raises
+    ------
+    BrdflabError
+        ``file:line: what was expected`` for a malformed file.
+    """
     from brdflab.limits import check_input, read_input
 
     path = Path(path)
@@ -122,15 +136,15 @@ def read_samples(path: str | Path) -> Samples:
     if path.suffix in (".npy", ".npz"):
         check_input(path, "samples file")
         arr = _load_array(path)
-        if arr.ndim != 2 or arr.shape[1] not in ALLOWED or not (np.issubdtype(arr.dtype, np.floating)
+        if arr.ndim != 2 or arr.shape[1] not in allowed or not (np.issubdtype(arr.dtype, np.floating)
                                                                  or np.issubdtype(arr.dtype, np.integer)):
-            raise BrdflabError(f"expected a real numeric (N, k) array with k = {EXPECTED}; got "
+            raise BrdflabError(f"expected a real numeric (N, k) array with k = {expected}; got "
                                f"{_short(str(arr.dtype), 20)} shape {arr.shape}", file=path)
         data = arr.astype(np.float64)
         bad = ~np.isfinite(data).all(axis=1)
         if bad.any():
             raise BrdflabError(f"row {int(np.argmax(bad))}: non-finite value", file=path)
-        return _columns(str(path), data, np.arange(len(data)), arr.shape[1])
+        return data, np.arange(len(data)), arr.shape[1]
     rows, lines, ncol, first = [], [], None, None
     try:
         text = read_input(path, "samples file").decode("utf-8", errors="strict")
@@ -142,8 +156,8 @@ def read_samples(path: str | Path) -> Samples:
         if not tokens:
             continue
         if ncol is None:
-            if len(tokens) not in ALLOWED:
-                raise BrdflabError(f"{len(tokens)} columns; expected {EXPECTED}", file=path, line=num)
+            if len(tokens) not in allowed:
+                raise BrdflabError(f"{len(tokens)} columns; expected {expected}", file=path, line=num)
             ncol, first = len(tokens), num
         elif len(tokens) != ncol:
             raise BrdflabError(f"{len(tokens)} columns, but line {first} has {ncol}", file=path, line=num)
@@ -158,7 +172,7 @@ def read_samples(path: str | Path) -> Samples:
         lines.append(num)
     if not rows:
         raise BrdflabError("no samples (only comments or blank lines)", file=path)
-    return _columns(str(path), np.array(rows), np.array(lines), ncol)
+    return np.array(rows), np.array(lines), ncol
 
 
 def _load_array(path: Path) -> np.ndarray:

@@ -1,0 +1,535 @@
+"""Users' own light samples against brdflab's emitters (``brdflab chi2 --samples FILE --against-emitter
+scene.xml[:index]``): the emitter-sampling counterpart of :mod:`brdflab.validate.external`.
+
+File format
+-----------
+The conventions of :func:`brdflab.validate.external.read_table` (text with ``#`` comments, ``.npy``, or
+``.npz`` with the key ``samples``); one row per call of the light sampler, in world space:
+
+==========================================================  ==================================================
+columns                                                     meaning
+==========================================================  ==================================================
+``x_x x_y x_z``                                             the reference (shading) point the light is sampled from
+``y_x y_y y_z``                                             the sampled point on the light
+``n_x n_y n_z``                                             the light's normal at y
+``pdf``                                                     the sampler's density of y
+``measure``                                                 0: ``pdf`` is per unit area (p_A), 1: per steradian (p_ω)
+``L_r L_g L_b`` (optional)                                  the radiance the sample returns (arriving at x)
+==========================================================  ==================================================
+
+11 or 14 columns. Without ``:index`` the samples are of the scene's whole light (an emitter chosen by the
+scene's selection, uniform as in Nori, then a point on it) and the pdf includes the selection probability;
+with ``:index`` (0-based, in the scene's order of ``<emitter>`` elements) they are of that emitter alone.
+A sampler call that produced no point is a row with pdf 0 and y = 0 0 0.
+
+What is checked
+---------------
+1. **On the emitter**: every y lies on the light (distance to its nearest triangle ≤ :data:`ON_RTOL` × the
+   light's size; a point light's position), and the normal column agrees with brdflab's shading normal there.
+2. **pdf**: brdflab samples area lights uniformly by area, p_A = p_sel / A_e; in solid angle
+   p_ω = p_A · r² / |cos θ_y| (r = ‖y − x‖, θ_y between the light's normal and y → x; spec §13.2.3). The
+   file's pdf, in its measure, must agree within 1 % for all but 0.1 % of the front-facing samples. A
+   mismatch is explained, where one fits, by the usual bugs: area measure flagged as solid angle (missing
+   r²/cos), the reverse, a missing cos θ_y or r², a missing or doubled selection probability, a triangle's pdf
+   1/A_k (or 1/(K·A_k), triangles chosen uniformly) instead of the emitter's.
+3. **Distribution**: Pearson's chi-square of the points on the light over n² congruent sub-triangles of every
+   triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected counts N · p_sel · A_k / (A_e n²)
+   (:data:`brdflab.validate.chi2.SIGNIFICANCE`, cells below 5 expected pooled); a failure is explained by
+   sub-tests: emitter frequencies against the scene's selection, triangle counts against a *uniform* choice
+   of triangles (fits where the area-weighted one does not), points within their triangles.
+4. **Radiance** (14 columns, constant-radiance lights): L_e where y faces x, else 0 (one-sided emitters);
+   I/r² for a point light.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.errors import BrdflabError
+from brdflab.validate import chi2 as c2
+from brdflab.validate.emitters import SUB, emitter_triangles, shading_normals, subtriangle_cell
+from brdflab.validate.external import COLUMN_FRACTION, COLUMN_RTOL, _ratio_hint, read_table
+
+ALLOWED = (11, 14)
+EXPECTED = "11 or 14 columns (x y n pdf measure [L_r L_g L_b]: reference point, light point, its normal, pdf, " \
+           "0 = area / 1 = solid angle measure, radiance)"
+#: A point is on the light when its distance to the nearest triangle is at most this × the light's size.
+ON_RTOL = 1e-4
+#: Fewest points on the light for a chi-square test (fewer: the test fails, no data is not a pass).
+MIN_SAMPLES = 100
+#: Normals agree when their dot product is at least this (≈ 2.6°).
+NORMAL_DOT = 0.999
+
+
+@dataclass
+class EmitterSamples:
+    """Columns of an emitter-samples file (see module docstring)."""
+
+    path: str
+    x: np.ndarray
+    y: np.ndarray
+    n: np.ndarray
+    pdf: np.ndarray
+    solid_angle: np.ndarray
+    """(N,) True where the pdf is per steradian (measure 1), False per unit area (0)."""
+    radiance: np.ndarray | None
+    lines: np.ndarray
+
+
+def read_emitter_samples(path: str | Path) -> EmitterSamples:
+    """Read an emitter-samples file; :class:`BrdflabError` with ``file:line`` if it is malformed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "l.txt"
+    >>> _ = p.write_text("# x y n pdf measure\\n0 0 0  0 1 0  0 -1 0  0.25 0\\n")
+    >>> s = read_emitter_samples(p)
+    >>> s.y.tolist(), s.solid_angle.tolist()
+    ([[0.0, 1.0, 0.0]], [False])
+    """
+    data, lines, ncol = read_table(path, ALLOWED, EXPECTED)
+    m = data[:, 10]
+    bad = (m != 0) & (m != 1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BrdflabError(f"measure column (11th) is {m[i]:g}; expected 0 (area) or 1 (solid angle)", file=path,
+                           line=int(lines[i]))
+    neg = data[:, 9] < 0
+    if neg.any():
+        i = int(np.argmax(neg))
+        raise BrdflabError(f"negative pdf {data[i, 9]:g}", file=path, line=int(lines[i]))
+    return EmitterSamples(str(path), data[:, 0:3], data[:, 3:6], data[:, 6:9], data[:, 9], m == 1,
+                          data[:, 11:14] if ncol == 14 else None, lines)
+
+
+def parse_target(text: str) -> tuple[Path, int | None]:
+    """``scene.xml:2`` → (scene.xml, 2); ``scene.xml`` → (scene.xml, None)."""
+    head, sep, tail = text.rpartition(":")
+    if sep and tail.strip().isdigit() and head:
+        return Path(head), int(tail)
+    return Path(text), None
+
+
+@dataclass
+class Check:
+    """One of the checks (module docstring): passed, a one-line summary and a hint."""
+
+    name: str
+    passed: bool
+    summary: str
+    hint: str = ""
+    data: dict = field(default_factory=dict)
+
+
+@dataclass
+class EmitterSamplesResult:
+    """All checks of a file against an emitter (or the whole light) of a scene."""
+
+    path: str
+    target: str
+    samples: int
+    checks: list[Check]
+
+    @property
+    def passed(self) -> bool:
+        """True when every check passed."""
+        return all(c.passed for c in self.checks)
+
+    def messages(self) -> list[str]:
+        """One line per check (and its hint)."""
+        out = []
+        for c in self.checks:
+            out.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.summary}")
+            if c.hint:
+                out.append(f"       hint: {c.hint}")
+        return out
+
+    def to_dict(self) -> dict:
+        """Plain form (JSON)."""
+        return {"path": self.path, "target": self.target, "samples": self.samples, "passed": self.passed,
+                "checks": [{"name": c.name, "passed": c.passed, "summary": c.summary, "hint": c.hint, **c.data}
+                           for c in self.checks]}
+
+
+class _Light:
+    """The triangles (and point lights) of the emitters under test, with their selection probabilities."""
+
+    def __init__(self, scene, index: int | None):
+        if not scene.emitters:
+            raise BrdflabError("the scene has no emitter")
+        if index is not None and not 0 <= index < len(scene.emitters):
+            raise BrdflabError(f"emitter index {index} out of range: the scene has {len(scene.emitters)} "
+                               f"emitter(s), 0 … {len(scene.emitters) - 1}")
+        ids = list(range(len(scene.emitters))) if index is None else [index]
+        pmf = np.asarray(scene.emitter_pmf, float) if index is None else np.ones(1)
+        self.ids, self.p_sel = ids, (pmf if index is None else np.ones(1))
+        self.emitters = [scene.emitters[i] for i in ids]
+        for i, e in zip(ids, self.emitters, strict=True):
+            if e.is_environment:
+                raise BrdflabError(f"emitter {i} is an environment map: --against-emitter checks area and "
+                                   "point lights (test environment sampling with 'brdflab validate')")
+        tris, owner, local, areas = [], [], [], []
+        for j, e in enumerate(self.emitters):
+            if e.is_delta:
+                continue
+            t = emitter_triangles(e)
+            tris.append(t)
+            owner.append(np.full(len(t), j))
+            local.append(np.arange(len(t)))
+            areas.append(e.geometry.tri_area[e.tris])
+        self.tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+        self.owner = np.concatenate(owner) if owner else np.zeros(0, int)
+        self.local = np.concatenate(local) if local else np.zeros(0, int)
+        self.tri_area = np.concatenate(areas) if areas else np.zeros(0)
+        self.area = np.array([getattr(e, "area", 0.0) for e in self.emitters])
+        pts = [e.position for e in self.emitters if e.is_delta]
+        ext = np.concatenate([self.tris.reshape(-1, 3), np.array(pts).reshape(-1, 3)])
+        self.size = float(np.linalg.norm(ext.max(0) - ext.min(0))) or 1.0
+        # Probability of each triangle (and point light) under brdflab's sampling: p_sel · A_k / A_e.
+        self.tri_prob = np.array([self.p_sel[o] * a / self.area[o] for o, a in zip(self.owner, self.tri_area,
+                                                                                   strict=True)])
+
+    def label(self, j: int) -> str:
+        e = self.emitters[j]
+        return f"{getattr(e, 'type_name', '') or type(e).__name__} #{self.ids[j]}"
+
+
+def nearest_triangle(y: np.ndarray, tris: np.ndarray, candidates: int = 12, far: float = np.inf
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nearest of ``tris`` (K, 3, 3) to each point ``y`` (N, 3): index, exact point–triangle distance and
+    the barycentrics (b1, b2) of the point's projection clamped into the triangle. The triangles with the
+    nearest centroids are tried first; points farther than ``far`` from all of them try every triangle."""
+    from scipy.spatial import cKDTree
+
+    p0 = tris[:, 0]
+    e1, e2 = tris[:, 1] - p0, tris[:, 2] - p0
+    g11, g12, g22 = np.sum(e1 * e1, 1), np.sum(e1 * e2, 1), np.sum(e2 * e2, 1)
+    det = np.where(g11 * g22 - g12 * g12 > 0, g11 * g22 - g12 * g12, 1.0)
+
+    def seg(p, a, b):  # distance of p (n, c, 3) to segments a→b (n, c, 3)
+        ab = b - a
+        t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0.0, 1.0)
+        return np.linalg.norm(p - a - t[..., None] * ab, axis=-1)
+
+    def test(pts, cand):
+        d = pts[:, None, :] - p0[cand]
+        r1, r2 = np.sum(d * e1[cand], 2), np.sum(d * e2[cand], 2)
+        b1 = (g22[cand] * r1 - g12[cand] * r2) / det[cand]
+        b2 = (g11[cand] * r2 - g12[cand] * r1) / det[cand]
+        inside = (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+        proj = p0[cand] + b1[..., None] * e1[cand] + b2[..., None] * e2[cand]
+        q = pts[:, None, :]
+        t = tris[cand]
+        edge = np.minimum(np.minimum(seg(q, t[..., 0, :], t[..., 1, :]), seg(q, t[..., 1, :], t[..., 2, :])),
+                          seg(q, t[..., 2, :], t[..., 0, :]))
+        dist = np.where(inside, np.linalg.norm(q - proj, axis=-1), edge)
+        j = np.argmin(dist, axis=1)
+        rows = np.arange(len(j))
+        bb = np.stack([b1[rows, j], b2[rows, j]], 1)
+        bb = np.clip(bb, 0.0, 1.0)
+        s = bb.sum(1)
+        bb = np.where((s > 1)[:, None], bb / np.maximum(s, 1e-300)[:, None], bb)
+        return cand[rows, j], dist[rows, j], bb
+
+    c = min(candidates, len(tris))
+    _, cand = cKDTree(tris.mean(axis=1)).query(y, k=c)
+    k, dist, b = test(y, np.asarray(cand).reshape(len(y), c))
+    miss = np.flatnonzero(dist > far) if c < len(tris) else np.zeros(0, int)
+    for s in range(0, len(miss), 256):
+        sel = miss[s:s + 256]
+        k[sel], dist[sel], b[sel] = test(y[sel], np.broadcast_to(np.arange(len(tris)), (len(sel), len(tris))))
+    return k, dist, b
+
+
+def _pearson(obs: np.ndarray, exp: np.ndarray) -> tuple[float, int, float]:
+    return c2.pearson(np.asarray(obs, float), np.asarray(exp, float))
+
+
+def check_emitter_samples(samples: str | Path | EmitterSamples, scene, index: int | None = None,
+                          threshold: float = c2.SIGNIFICANCE, target: str = "") -> EmitterSamplesResult:
+    """Check a file of light samples against emitter ``index`` of ``scene`` (a loaded scene or a path), or
+    against the scene's whole light when ``index`` is None (see the module docstring)."""
+    from brdflab.scene.loader import load_scene
+
+    s = samples if isinstance(samples, EmitterSamples) else read_emitter_samples(samples)
+    if not hasattr(scene, "emitters"):
+        target = target or str(scene) + ("" if index is None else f":{index}")
+        scene = load_scene(scene)
+    light = _Light(scene, index)
+    target = target or ("the scene's light" if index is None else f"emitter {index}")
+    n = len(s.pdf)
+    nothing = (s.pdf == 0) & np.all(s.y == 0, axis=1)
+    got = np.flatnonzero(~nothing)
+    checks = []
+    # 1. On the emitter: owner j (index into light.emitters), triangle, barycentrics, brdflab's normal.
+    tol = ON_RTOL * light.size
+    owner = np.full(n, -1)
+    tri = np.full(n, -1)
+    dist = np.full(n, np.inf)
+    bary = np.zeros((n, 2))
+    if len(light.tris) and len(got):
+        k, d, b = nearest_triangle(s.y[got], light.tris, far=tol)
+        dist[got], tri[got], bary[got] = d, k, b
+        owner[got] = np.where(d <= tol, light.owner[k], -1)
+    for j, e in enumerate(light.emitters):
+        if e.is_delta and len(got):
+            dp = np.linalg.norm(s.y[got] - e.position, axis=1)
+            closer = dp < dist[got]
+            dist[got] = np.where(closer, dp, dist[got])
+            owner[got] = np.where(closer & (dp <= tol), j, owner[got])
+            tri[got] = np.where(closer, -1, tri[got])
+    on = owner >= 0
+    off = (~on) & (~nothing)
+    summary = f"{int(on.sum())} of {len(got)} sampled points on {target}"
+    hint = ""
+    if off.any():
+        i = int(np.flatnonzero(off)[np.argmax(dist[off])])
+        summary += (f"; {int(off.sum())} off it (up to {dist[i]:.3g} away, line {int(s.lines[i])}; tolerance "
+                    f"{tol:.2g})")
+        hint = ("points near the light's plane but outside its triangles: check the square-to-triangle warp "
+                "(b = (1 − √u₁, u₂ √u₁)) and the vertices used" if np.median(dist[off]) < 0.05 * light.size
+                else "points far from this light: wrong emitter (index?), or a transform left out")
+    if nothing.any():
+        summary += f"; {int(nothing.sum())} call(s) produced no point"
+    checks.append(Check("points on the emitter", not off.any() and on.any(), summary, hint,
+                        {"on": int(on.sum()), "off": int(off.sum()), "no_point": int(nothing.sum())}))
+    # brdflab's shading normal at each point on an area light.
+    ns = np.zeros((n, 3))
+    area_pts = on & (tri >= 0)
+    for j, e in enumerate(light.emitters):
+        mine = np.flatnonzero(area_pts & (owner == j))
+        if len(mine):
+            ns[mine] = shading_normals(e, light.local[tri[mine]], bary[mine])
+    if area_pts.any():
+        nf = s.n[area_pts]
+        ln = np.linalg.norm(nf, axis=1)
+        dot = np.sum(nf * ns[area_pts], axis=1) / np.where(ln > 0, ln, 1.0)
+        bad = (dot < NORMAL_DOT) | (ln == 0)
+        nhint = ""
+        if bad.any() and np.median(dot[bad]) < -NORMAL_DOT:
+            nhint = "the normals point the other way (to the back of the light): a flipped cross product?"
+        elif bad.any() and np.all(np.abs(np.abs(dot[bad]) - 1) > 1e-3):
+            nhint = ("normals differ from the light's interpolated shading normal (or face normal where the mesh "
+                     "has no vertex normals)")
+        checks.append(Check("normals", not bad.any(), f"{int((~bad).sum())} of {len(dot)} agree with brdflab's "
+                            f"(within {np.degrees(np.arccos(NORMAL_DOT)):.1f}°)", nhint))
+    # 2. pdf.
+    checks.append(_pdf_check(s, light, owner, tri, ns, on))
+    # 3. distribution.
+    checks.append(_distribution_check(s, light, owner, tri, bary, on, threshold))
+    # 4. radiance.
+    if s.radiance is not None:
+        rc = _radiance_check(s, light, owner, ns, on)
+        if rc is not None:
+            checks.append(rc)
+    return EmitterSamplesResult(s.path, target, n, checks)
+
+
+def _geometry(s: EmitterSamples, ns: np.ndarray, sel: np.ndarray):
+    """r, r² and cos θ_y (brdflab's normal, toward x) of the samples ``sel``."""
+    v = s.x[sel] - s.y[sel]
+    r2 = np.sum(v * v, axis=1)
+    r = np.sqrt(r2)
+    cos = np.sum(ns[sel] * v, axis=1) / np.where(r > 0, r, 1.0)
+    return r, r2, cos
+
+
+def _pdf_check(s: EmitterSamples, light: _Light, owner, tri, ns, on) -> Check:
+    area = on & (tri >= 0)
+    _, r2, cos = _geometry(s, ns, area)
+    o = owner[area]
+    p_sel = light.p_sel[o]
+    p_a = p_sel / light.area[o]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_w = p_a * r2 / np.abs(cos)
+    solid = s.solid_angle[area]
+    ours = np.where(solid, p_w, p_a)
+    fv = s.pdf[area]
+    front = cos > 1e-6
+    cmp_ = front & np.isfinite(ours) & (ours > 0)
+    if cmp_.sum() == 0:
+        return Check("pdf", False, "no front-facing sample on an area light to compare (no data is not a pass)")
+    f, ob = fv[cmp_], ours[cmp_]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(f - ob) / np.maximum(np.maximum(f, ob), 1e-300)
+    frac = float((rel > COLUMN_RTOL).mean())
+    ok = frac <= COLUMN_FRACTION
+    i = int(np.argmax(rel))
+    lines = s.lines[area][cmp_]
+    summary = (f"{int(cmp_.sum())} front-facing samples compared: {100 * frac:.2f} % differ by more than "
+               f"{100 * COLUMN_RTOL:g} % (worst line {int(lines[i])}: file {f[i]:.6g}, brdflab {ob[i]:.6g} "
+               f"{'per sr' if solid[cmp_][i] else 'per unit area'})")
+    hint = ""
+    if not ok:
+        c, rr2, sol = np.abs(cos[cmp_]), r2[cmp_], solid[cmp_]
+        ps = p_sel[cmp_]
+        tri_a = light.tri_area[tri[area][cmp_]]
+        ea = light.area[o[cmp_]]
+        kk = np.array([np.count_nonzero(light.owner == j) for j in range(len(light.emitters))])[o[cmp_]]
+        one = np.ones_like(c)
+        base = [("the pdf is in area measure but flagged as solid angle (missing r²/|cos θ_y|: p_ω = p_A·r²/|cos θ_y|)",
+                 np.where(sol, c / rr2, np.nan)),
+                ("the pdf is in solid-angle measure but flagged as area (set the measure column to 1)",
+                 np.where(sol, np.nan, rr2 / c)),
+                ("a missing |cos θ_y| in p_ω = p_A·r²/|cos θ_y|", np.where(sol, c, np.nan)),
+                ("a missing r² in p_ω = p_A·r²/|cos θ_y|", np.where(sol, 1.0 / rr2, np.nan)),
+                ("a missing emitter-selection probability (p = p_sel · p_emitter)",
+                 np.where(ps < 1, 1.0 / ps, np.nan)),
+                ("the emitter-selection probability applied twice", np.where(ps < 1, ps, np.nan)),
+                ("the pdf of the chosen triangle (1/A_k) instead of the emitter's (1/A)", ea / tri_a),
+                ("triangles chosen uniformly (pdf 1/(K·A_k)) instead of by area (1/A)",
+                 np.where(kk > 1, ea / (kk * tri_a), np.nan))]
+        cands = [(t, v) for t, v in base if np.isfinite(v).any() and not np.allclose(v[np.isfinite(v)], 1.0)]
+        pairs = [(f"{a} and {b}", va * vb) for i1, (a, va) in enumerate(cands) for b, vb in cands[i1 + 1:]]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            hint = _ratio_hint(f / ob, cands + pairs + [("", one)])
+    return Check("pdf", ok, summary, hint, {"compared": int(cmp_.sum()), "fraction_off": frac})
+
+
+def _distribution_check(s: EmitterSamples, light: _Light, owner, tri, bary, on, threshold: float) -> Check:
+    m = int(on.sum())
+    n_tri = len(light.tris)
+    deltas = [j for j, e in enumerate(light.emitters) if e.is_delta]
+    if m < MIN_SAMPLES:
+        return Check("distribution", False, f"only {m} points on the light: at least {MIN_SAMPLES} are needed for "
+                     "a chi-square test (no data is not a pass)")
+    sub = int(np.clip(np.floor(np.sqrt(m / (20.0 * max(n_tri, 1)))), 1, SUB)) if n_tri else 1
+    cells = sub * sub
+    area_on = on & (tri >= 0)
+    obs = np.zeros(n_tri * cells + len(deltas))
+    if n_tri:
+        np.add.at(obs, tri[area_on] * cells + subtriangle_cell(bary[area_on], sub), 1.0)
+    for i, j in enumerate(deltas):
+        obs[n_tri * cells + i] = np.count_nonzero(on & (owner == j))
+    prob = np.concatenate([np.repeat(light.tri_prob / cells, cells), light.p_sel[deltas]])
+    exp = prob / prob.sum() * m
+    stat, dof, p = _pearson(obs, exp)
+    ok = bool(np.isfinite(p) and p >= threshold)
+    summary = (f"{m} points in {len(obs)} cells ({sub}² per triangle): X² = {stat:.1f}, {dof} dof, p = {p:.3g} "
+               f"(threshold {threshold:g})")
+    hints = []
+    if not ok:
+        j_obs = np.bincount(owner[on], minlength=len(light.emitters)).astype(float)
+        if len(light.emitters) > 1:
+            _, _, pe = _pearson(j_obs, light.p_sel * m)
+            if np.isfinite(pe) and pe < threshold:
+                freq = ", ".join(f"{light.label(j)} {j_obs[j] / m:.3f} (scene: {light.p_sel[j]:.3f})"
+                                 for j in range(len(light.emitters)))
+                hints.append(f"emitters chosen with other frequencies than the scene's selection: {freq}")
+        t_obs = np.bincount(tri[area_on], minlength=n_tri).astype(float) if n_tri else np.zeros(0)
+        for j in range(len(light.emitters)):
+            mine = np.flatnonzero(light.owner == j)
+            if len(mine) < 2 or t_obs[mine].sum() < MIN_SAMPLES:
+                continue
+            a = light.tri_area[mine]
+            tot = t_obs[mine].sum()
+            _, _, p_area = _pearson(t_obs[mine], a / a.sum() * tot)
+            _, _, p_unif = _pearson(t_obs[mine], np.full(len(mine), tot / len(mine)))
+            if np.isfinite(p_area) and p_area < threshold and np.isfinite(p_unif) and p_unif >= threshold:
+                hints.append(f"{light.label(j)}: triangles are chosen uniformly, not by area (choose triangle k with "
+                             "probability A_k/A, e.g. a discrete pdf over the areas)")
+        if sub >= 2 and n_tri:
+            exp_in = np.repeat(t_obs / cells, cells)
+            _, _, p_in = _pearson(obs[:n_tri * cells], exp_in)
+            if np.isfinite(p_in) and p_in < threshold:
+                hints.append("points are not uniform within their triangles: check the square-to-triangle warp "
+                             "(b = (1 − √u₁, u₂ √u₁))")
+    return Check("distribution", ok, summary, "; ".join(hints), {"statistic": stat, "dof": dof, "p": p})
+
+
+def _radiance_check(s: EmitterSamples, light: _Light, owner, ns, on) -> Check | None:
+    ours = np.full((len(s.pdf), 3), np.nan)
+    for j, e in enumerate(light.emitters):
+        mine = np.flatnonzero(on & (owner == j))
+        if not len(mine):
+            continue
+        if e.is_delta:
+            r2 = np.sum((s.y[mine] - s.x[mine]) ** 2, axis=1)
+            ours[mine] = e.intensity / r2[:, None]
+        elif e.radiance.constant:
+            _, _, cos = _geometry(s, ns, mine)
+            ours[mine] = np.where((cos > 0)[:, None], e.radiance.value * e.scale, 0.0)
+    sel = np.isfinite(ours).all(axis=1)
+    if not sel.any():
+        return None
+    f, ob = s.radiance[sel], ours[sel]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(f == ob, 0.0, np.abs(f - ob) / np.maximum(np.maximum(np.abs(f), np.abs(ob)), 1e-300))
+    rel = rel.max(axis=1)
+    frac = float((rel > COLUMN_RTOL).mean())
+    ok = frac <= COLUMN_FRACTION
+    hint = ""
+    if not ok:
+        back = (np.abs(ob).sum(axis=1) == 0)
+        if back.any() and (rel[back] > COLUMN_RTOL).mean() > 0.5 and \
+                (not (~back).any() or (rel[~back] > COLUMN_RTOL).mean() <= COLUMN_FRACTION):
+            hint = "radiance returned for points seen from behind the light (area lights emit on their front side only)"
+        elif np.any(s.pdf[sel] > 0):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = (f / ob).mean(axis=1)
+            hint = _ratio_hint(ratio, [("the radiance divided by the pdf (that is the sample's weight, not L_e)",
+                                        1.0 / s.pdf[sel])])
+    i = int(np.argmax(rel))
+    return Check("radiance", ok, f"{int(sel.sum())} samples compared: {100 * frac:.2f} % differ by more than "
+                 f"{100 * COLUMN_RTOL:g} % (worst line {int(s.lines[sel][i])})", hint)
+
+
+def own_samples(scene, index: int | None, n: int, seed: int = 0) -> np.ndarray:
+    """(N, 14) brdflab's own light samples in the file format (solid-angle pdf, measure 1), from shading
+    points of the scene: what a correct sampler writes (tests, examples)."""
+    from brdflab.integrator.common import choose_emitters
+    from brdflab.validate.emitters import reference_points
+
+    p, _ = reference_points(scene, seed=seed)
+    rng = np.random.default_rng(seed + 1)
+    x = p[rng.integers(0, len(p), n)]
+    if index is None:
+        e_of = choose_emitters(scene, rng.random(n))
+        p_sel = np.asarray(scene.emitter_pmf)[e_of]
+    else:
+        e_of, p_sel = np.full(n, index), np.ones(n)
+    out = np.zeros((n, 14))
+    out[:, 0:3] = x
+    out[:, 10] = 1.0
+    u = rng.random((n, 3))
+    light = _Light(scene, index)
+    for e in np.unique(e_of):
+        sel = np.flatnonzero(e_of == e)
+        em = scene.emitters[e]
+        r = em.sample(x[sel], u[sel])
+        y = x[sel] + r.wi * np.where(np.isfinite(r.dist), r.dist, 0.0)[:, None]
+        out[sel, 3:6] = y
+        out[sel, 9] = r.pdf * p_sel[sel]
+        out[sel, 11:14] = r.radiance
+        if not em.is_delta:
+            k, _, b = nearest_triangle(y, light.tris)
+            j = light.ids.index(int(e))
+            out[sel, 6:9] = shading_normals(em, light.local[k], b) if np.all(light.owner[k] == j) else 0.0
+    return out
+
+
+def write_emitter_report(res: EmitterSamplesResult, out: Path) -> Path:
+    """Write ``emitter_samples.json`` and ``emitter_samples.html`` into ``out``; return the page path."""
+    import json
+
+    from brdflab.imageio import _atomic_write
+    from brdflab.report import page as html
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(res.to_dict(), indent=2, default=float)
+    _atomic_write(out / "emitter_samples.json", lambda tmp: Path(tmp).write_text(text))
+    rows = [[c.name, "passed" if c.passed else "FAILED", c.summary, c.hint] for c in res.checks]
+    body = html.section("Verdict", html.esc_p(f"{res.path}: {res.samples} light samples against {res.target}: "
+                                              + ("all checks passed" if res.passed else "FAILED"))
+                        + html.table(["check", "result", "measured", "hint"], rows))
+    body += html.section("Method", html.esc_p("See docs/external-samples.md (light samples) and "
+                                              "brdflab/validate/emitter_samples.py."))
+    page = html.page(f"brdflab light samples — {Path(res.path).name}", body)
+    path = out / "emitter_samples.html"
+    _atomic_write(path, lambda tmp: Path(tmp).write_text(page))
+    return path
