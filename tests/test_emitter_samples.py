@@ -65,7 +65,8 @@ def _failed(res) -> dict:
 def test_own_samples_pass(tmp_path, poly, index):
     res = _check(tmp_path, ES.own_samples(poly, index, 8000, seed=3), poly, index)
     assert res.passed, res.messages()
-    assert {c.name for c in res.checks} == {"points on the emitter", "normals", "pdf", "distribution", "radiance"}
+    assert {c.name for c in res.checks} == {"points on the emitter", "normals", "self-consistency", "pdf", "distribution",
+                                           "radiance"}
 
 
 def test_student_sampler_passes_in_either_measure(tmp_path, sphere):
@@ -80,25 +81,37 @@ def test_area_pdf_flagged_as_solid_angle(tmp_path, poly):
     cos = np.abs(np.sum(a[:, 6:9] * v, axis=1)) / np.sqrt(r2)
     a[:, 9] = a[:, 9] * cos / r2  # p_A (selection included), still flagged 1
     bad = _failed(_check(tmp_path, a, poly, None))
-    assert set(bad) == {"pdf"} and "area measure but flagged as solid angle" in bad["pdf"]
+    assert set(bad) == {"self-consistency", "pdf"} and "area measure but flagged as solid angle" in bad["pdf"]
 
 
 def test_missing_selection_probability(tmp_path, poly):
     a = ES.own_samples(poly, None, 6000, seed=5)
     a[:, 9] /= np.asarray(poly.emitter_pmf)[0]  # uniform over 2 emitters: p_sel = 1/2 forgotten
     bad = _failed(_check(tmp_path, a, poly, None))
-    assert set(bad) == {"pdf"} and "missing emitter-selection probability" in bad["pdf"]
+    assert set(bad) == {"self-consistency", "pdf"} and "missing emitter-selection probability" in bad["pdf"]
 
 
 def test_uniform_triangle_selection(tmp_path, sphere):
-    bad = _failed(_check(tmp_path, student(sphere, 0, 8000, 6, uniform_tri=True), sphere, 0))
-    assert set(bad) == {"pdf", "distribution"}
-    assert "triangles chosen uniformly" in bad["pdf"] and "chosen uniformly, not by area" in bad["distribution"]
+    """Triangles chosen uniformly *with* the pdf that goes with it, 1/(K·A_k), is a correct sampler of another
+    method than brdflab's: it passes, saying so. Chosen uniformly but claiming brdflab's 1/A is the bug."""
+    fair = student(sphere, 0, 8000, 6, uniform_tri=True)
+    res = _check(tmp_path, fair, sphere, 0)
+    assert res.passed, res.messages()
+    assert any("different sampling method than brdflab's (self-consistent)" in c.summary for c in res.checks)
+    em = sphere.emitters[0]
+    claimed = fair.copy()
+    v = claimed[:, 0:3] - claimed[:, 3:6]
+    r2 = np.sum(v * v, axis=1)
+    cos = np.sum(claimed[:, 6:9] * v, axis=1) / np.sqrt(r2)
+    claimed[:, 9] = np.where(cos > 0, r2 / np.abs(cos) / em.area, 0.0)  # brdflab's pdf, but uniform triangles
+    bad = _failed(_check(tmp_path, claimed, sphere, 0))
+    assert set(bad) == {"self-consistency", "distribution"}, bad
+    assert "chosen uniformly, not by area" in bad["distribution"]
 
 
 def test_wrong_triangle_warp(tmp_path, poly):
     bad = _failed(_check(tmp_path, student(poly, 0, 8000, 7, warp_bug=True), poly, 0))
-    assert set(bad) == {"distribution"} and "square-to-triangle warp" in bad["distribution"]
+    assert set(bad) == {"self-consistency", "distribution"} and "square-to-triangle warp" in bad["distribution"]
 
 
 def test_points_off_the_light_and_flipped_normals(tmp_path, poly):
@@ -159,3 +172,39 @@ def test_docstring_examples_run():
     import doctest
 
     assert doctest.testmod(ES).failed == 0
+
+
+def test_a_correct_sampler_of_another_method_passes(tmp_path, poly):
+    """Triangles chosen ∝ area² (not ∝ area) and points by a non-uniform warp within them, each with the exact
+    pdf that goes with it: a correct light sampler that is not brdflab's passes (issue 29's rule:
+    judge samples against their own pdf), in either measure."""
+    em = poly.emitters[0]
+    tri = emitter_triangles(em)
+    area = em.geometry.tri_area[em.tris]
+    rng = np.random.default_rng(17)
+    p, _ = reference_points(poly, seed=17)
+    n = 8000
+    x = p[rng.integers(0, len(p), n)]
+    q = area**2 / np.sum(area**2)
+    k = rng.choice(len(tri), n, p=q)
+    u1, u2 = rng.random(n), rng.random(n)
+    # b₁ = 1 − u₁^(1/3) has density 3(1 − b₁)²; b₂ uniform on [0, 1 − b₁]: jointly 3(1 − b₁) over the reference
+    # triangle (∫ = 1), and a world area element is 2 A_k db₁ db₂
+    b1 = 1.0 - np.cbrt(u1)
+    b2 = u2 * (1.0 - b1)
+    dens_ref = 3.0 * (1.0 - b1)  # density over (b₁, b₂) ∈ reference triangle of area ½: ∫ 3(1 − b₁) = 1
+    y = tri[k, 0] + b1[:, None] * (tri[k, 1] - tri[k, 0]) + b2[:, None] * (tri[k, 2] - tri[k, 0])
+    nrm = np.cross(tri[k, 1] - tri[k, 0], tri[k, 2] - tri[k, 0])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    p_a = q[k] * dens_ref / (2.0 * area[k])  # dA_world = 2 A_k d(b₁, b₂)
+    v = x - y
+    r2 = np.sum(v * v, axis=1)
+    cos = np.sum(nrm * v, axis=1) / np.sqrt(r2)
+    for measure in (0, 1):
+        pdf = np.where(cos > 0, p_a * r2 / np.abs(cos), 0.0) if measure else p_a
+        res = _check(tmp_path, np.column_stack([x, y, nrm, pdf, np.full(n, measure)]), poly, 0)
+        assert res.passed, res.messages()
+        assert any("different sampling method than brdflab's" in c.summary for c in res.checks)
+    # and the same sampler claiming brdflab's pdf (uniform by area) is rejected by its own points
+    wrong = np.column_stack([x, y, nrm, np.full(n, 1.0 / area.sum()), np.zeros(n)])
+    assert "self-consistency" in _failed(_check(tmp_path, wrong, poly, 0))

@@ -26,18 +26,23 @@ What is checked
 ---------------
 1. **On the emitter**: every y lies on the light (distance to its nearest triangle ≤ :data:`ON_RTOL` × the
    light's size; a point light's position), and the normal column agrees with brdflab's shading normal there.
-2. **pdf**: brdflab samples area lights uniformly by area, p_A = p_sel / A_e; in solid angle
-   p_ω = p_A · r² / |cos θ_y| (r = ‖y − x‖, θ_y between the light's normal and y → x; spec §13.2.3). The
+2. **Self-consistency** (the verdict for area lights, whatever method drew the points): the points against
+   *their own* pdf column — Σ 1_c(y)/p_A(y)/N must estimate each cell's area (:func:`_self_consistency_check`).
+   When it holds, the two comparisons with brdflab's own method below (pdf and distribution) are reported as
+   information ("a different sampling method than brdflab's (self-consistent)"), not as failures: a correct
+   sampler of another method passes. When it fails, their hints name the likely bug.
+3. **pdf** (against brdflab's method): brdflab samples area lights uniformly by area, p_A = p_sel / A_e; in
+   solid angle p_ω = p_A · r² / |cos θ_y| (r = ‖y − x‖, θ_y between the light's normal and y → x; spec §13.2.3). The
    file's pdf, in its measure, must agree within 1 % for all but 0.1 % of the front-facing samples. A
    mismatch is explained, where one fits, by the usual bugs: area measure flagged as solid angle (missing
    r²/cos), the reverse, a missing cos θ_y or r², a missing or doubled selection probability, a triangle's pdf
    1/A_k (or 1/(K·A_k), triangles chosen uniformly) instead of the emitter's.
-3. **Distribution**: Pearson's chi-square of the points on the light over n² congruent sub-triangles of every
-   triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected counts N · p_sel · A_k / (A_e n²)
+4. **Distribution** (against brdflab's method): Pearson's chi-square of the points on the light over n²
+   congruent sub-triangles of every triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected counts N · p_sel · A_k / (A_e n²)
    (:data:`brdflab.validate.chi2.SIGNIFICANCE`, cells below 5 expected pooled); a failure is explained by
    sub-tests: emitter frequencies against the scene's selection, triangle counts against a *uniform* choice
    of triangles (fits where the area-weighted one does not), points within their triangles.
-4. **Radiance** (14 columns, constant-radiance lights): L_e where y faces x, else 0 (one-sided emitters);
+5. **Radiance** (14 columns, constant-radiance lights): L_e where y faces x, else 0 (one-sided emitters);
    I/r² for a point light.
 """
 
@@ -60,6 +65,8 @@ EXPECTED = "11 or 14 columns (x y n pdf measure [L_r L_g L_b]: reference point, 
 ON_RTOL = 1e-4
 #: Fewest points on the light for a chi-square test (fewer: the test fails, no data is not a pass).
 MIN_SAMPLES = 100
+#: Points per bin of the self-consistency test (consecutive cells of one emitter pooled).
+POOL = 100
 #: Normals agree when their dot product is at least this (≈ 2.6°).
 NORMAL_DOT = 0.999
 
@@ -317,16 +324,144 @@ def check_emitter_samples(samples: str | Path | EmitterSamples, scene, index: in
                      "has no vertex normals)")
         checks.append(Check("normals", not bad.any(), f"{int((~bad).sum())} of {len(dot)} agree with brdflab's "
                             f"(within {np.degrees(np.arccos(NORMAL_DOT)):.1f}°)", nhint))
-    # 2. pdf.
-    checks.append(_pdf_check(s, light, owner, tri, ns, on))
-    # 3. distribution.
-    checks.append(_distribution_check(s, light, owner, tri, bary, on, threshold))
+    # 2. and 3.: the samples against their own pdf (the verdict), and against brdflab's method (pdf, distribution).
+    own = _self_consistency_check(s, light, owner, tri, bary, ns, on, threshold)
+    same = [_pdf_check(s, light, owner, tri, ns, on), _distribution_check(s, light, owner, tri, bary, on, threshold)]
+    if own is not None:
+        checks.append(own)
+        if own.passed:  # a correct sampler of another method: brdflab's pdf and distribution are information only
+            for c in same:
+                if not c.passed:
+                    c.summary += " — a different sampling method than brdflab's (self-consistent), not an error"
+                    c.passed, c.hint, c.data["informational"] = True, "", True
+    checks += same
     # 4. radiance.
     if s.radiance is not None:
         rc = _radiance_check(s, light, owner, ns, on)
         if rc is not None:
             checks.append(rc)
     return EmitterSamplesResult(s.path, target, n, checks)
+
+
+def _vertex_facing(light: _Light, xs: np.ndarray) -> np.ndarray:
+    """(rows, triangles): True where the light triangle faces x at all three vertices (brdflab's shading normals
+    there: vertex normals where the mesh has them, else the face normal), so the whole triangle emits toward x."""
+    ok = np.ones((len(xs), len(light.tris)), bool)
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # barycentrics (b1, b2) of the three vertices
+    for j, e in enumerate(light.emitters):
+        mine = np.flatnonzero(light.owner == j)
+        for v in range(3):
+            n = shading_normals(e, light.local[mine], np.repeat(corners[v:v + 1], len(mine), axis=0))
+            p = light.tris[mine, v]
+            ok[:, mine] &= np.einsum("rtk,tk->rt", xs[:, None, :] - p[None], n) > 0
+    return ok
+
+
+def _self_consistency_check(s: EmitterSamples, light: _Light, owner, tri, bary, ns, on,
+                            threshold: float) -> Check | None:
+    """The light points against *their own* pdf, whatever method drew them (the verdict on area lights).
+
+    For any sampler, a call yielding y with area density p_A(y) (the file's pdf, converted from solid angle by
+    p_A = p_ω |cos θ_y| / r², selection probability included) gives an unbiased estimate 1_c(y)/p_A(y) of a
+    cell's area a_c, for every cell c (n² congruent sub-triangles of each light triangle); averaged over the N
+    calls (also those that produced no point) Ŝ_c estimates a_c. Rows in solid-angle measure carry no density
+    where the light faces away from their x (one-sided lights: p_ω is 0 or infinite there), so a solid-angle row
+    counts only on the triangles its x sees the front of at all three vertices (shading normals), in Ŝ_c and,
+    equally, in its expectation: E[Ŝ_c] = a_c · (fraction of rows that count c; area-measure rows always).
+    Consecutive cells of one emitter are pooled into bins of ≥ :data:`POOL` points (a mean of a few 1/p terms
+    is not normal); per bin z = (Ŝ − E)/σ̂ with σ̂² estimated from the same samples, and the same for the sum;
+    all are tested at the family-wise level by Šidák's correction (two-sided Student-t tails with the bin's
+    points − 1 degrees of freedom; normal for the sum). A cell that holds
+    no sample while the file's own density elsewhere implies ≥ ln(cells/level) there fails (the sampler leaves
+    light out). Point lights have no area and are not tested here.
+    """
+    from scipy import stats
+
+    area = on & (tri >= 0)
+    n_calls = len(s.pdf)
+    if not area.any() or not len(light.tris):
+        return None
+    solid = s.solid_angle
+    rows = np.flatnonzero(area)
+    t_r = tri[rows]
+    sol_rows = np.flatnonzero(solid)
+    facing = _vertex_facing(light, s.x[sol_rows]) if len(sol_rows) else np.zeros((0, len(light.tris)), bool)
+    row_pos = np.full(len(s.pdf), -1)
+    row_pos[sol_rows] = np.arange(len(sol_rows))
+    v = s.x[rows] - s.y[rows]
+    r2 = np.sum(v * v, axis=1)
+    cos = np.sum(ns[rows] * v, axis=1) / np.sqrt(np.where(r2 > 0, r2, 1.0))
+    # solid-angle rows count where their x sees the whole triangle's front (elsewhere p_ω may be 0 or infinite)
+    use = ~solid[rows] | facing[np.maximum(row_pos[rows], 0), t_r] if len(sol_rows) else ~solid[rows]
+    m = int(use.sum())
+    if m < MIN_SAMPLES:
+        return Check("self-consistency", False, f"only {m} usable points on area lights: at least {MIN_SAMPLES} "
+                     "are needed (no data is not a pass)")
+    pdf = s.pdf[rows]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_a = np.where(solid[rows], pdf * np.abs(cos) / r2, pdf)
+    good = np.isfinite(p_a) & (p_a > 0)
+    bad = use & ~good
+    use &= good
+    sub = int(np.clip(np.floor(np.sqrt(m / (20.0 * len(light.tris)))), 1, SUB))
+    cells = sub * sub
+    n_cells = len(light.tris) * cells
+    cid = t_r * cells + subtriangle_cell(bary[rows], sub)
+    inv = np.where(use, 1.0 / np.where(good, p_a, 1.0), 0.0)
+    s1 = np.bincount(cid, inv, minlength=n_cells) / n_calls
+    s2 = np.bincount(cid, inv * inv, minlength=n_cells) / n_calls
+    # E_c: the fraction of calls whose row counts c (area rows always; solid-angle rows where x sees c's front)
+    seen = (np.count_nonzero(~solid) + facing.sum(axis=0)) / n_calls
+    expect = np.repeat(light.tri_area * seen / cells, cells)
+    hits = np.bincount(cid[use], minlength=n_cells)
+    density = hits.sum() / max(float(expect.sum()), 1e-300)
+    # an empty cell is evidence only where the file's own density implies so many points that none at all has
+    # probability e^(−λ) below the family's share of the level: λ ≥ ln(cells / level)
+    missing = (hits == 0) & (expect * density >= np.log(max(n_cells, 1) / threshold))
+    # Consecutive cells of one emitter are pooled into bins of ≥ POOL hits (a mean of a few 1/p terms is not
+    # normal); the last short bin joins the one before it.
+    owner_c = np.repeat(light.owner, cells)
+    bin_of = np.zeros(n_cells, np.int64)
+    b, acc = 0, 0
+    for c in range(n_cells):
+        if c and (owner_c[c] != owner_c[c - 1] or acc >= POOL):
+            b, acc = b + 1, 0
+        bin_of[c] = b
+        acc += hits[c]
+    n_bins = b + 1
+    s1 = np.bincount(bin_of, s1, minlength=n_bins)
+    s2 = np.bincount(bin_of, s2, minlength=n_bins)
+    expect_b = np.bincount(bin_of, expect, minlength=n_bins)
+    hits_b = np.bincount(bin_of, hits, minlength=n_bins)
+    var = np.maximum(s2 - s1 * s1, 0.0) / n_calls
+    total_s, total_e = float(s1.sum()), float(expect_b.sum())
+    var_total = max((float(np.sum(inv * inv)) / n_calls - total_s ** 2) / n_calls, 0.0)
+    tested_b = (hits_b >= POOL // 2) & (var > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(tested_b, (s1 - expect_b) / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)
+        z_total = (total_s - total_e) / np.sqrt(var_total) if var_total > 0 else 0.0
+    tested = int(tested_b.sum()) + 1
+    # Student's t with (points − 1) degrees of freedom: σ̂ is estimated from the bin's own points
+    p_cells = (2 * stats.t.sf(np.abs(z[tested_b]), np.maximum(hits_b[tested_b] - 1, 1)) if tested_b.any()
+               else np.ones(1))
+    p_min = float(min(p_cells.min(), 2 * stats.norm.sf(abs(z_total))))
+    p_family = float(-np.expm1(tested * np.log1p(-min(p_min, 1.0 - 1e-16))))  # 1 − (1 − p_min)^tested
+    ok = bool(p_family >= threshold and not missing.any() and not bad.any())
+    summary = (f"Σ 1/p_A = {total_s:.4g} for the expected {total_e:.4g} (z = {z_total:+.2f}); {tested - 1} bins "
+               f"of ≥ {POOL // 2} points ({sub}² cells per triangle), largest |z| = {float(np.max(np.abs(z))):.2f}; "
+               f"family p = {p_family:.3g} (threshold {threshold:g})")
+    hint = ""
+    if bad.any():
+        summary += f"; {int(bad.sum())} front-facing points with pdf ≤ 0 or not finite"
+        hint = "a point on the light was returned with a zero or invalid pdf"
+    elif missing.any():
+        lam = np.log(max(n_cells, 1) / threshold)
+        summary += f"; {int(missing.sum())} cells never sampled where the others imply ≥ {lam:.0f} samples each"
+        hint = "part of the light is never sampled: the sampler must reach every point of the light"
+    elif not ok:
+        hint = (f"the pdf column does not describe where the points are (Σ 1/p_A is {total_s / total_e:.3g}× what "
+                "it should be: a missing or extra factor, or points denser than the pdf says somewhere)")
+    return Check("self-consistency", ok, summary, hint, {"p": p_family, "ratio": total_s / total_e})
 
 
 def _geometry(s: EmitterSamples, ns: np.ndarray, sel: np.ndarray):
