@@ -65,8 +65,8 @@ def _failed(res) -> dict:
 def test_own_samples_pass(tmp_path, poly, index):
     res = _check(tmp_path, ES.own_samples(poly, index, 8000, seed=3), poly, index)
     assert res.passed, res.messages()
-    assert {c.name for c in res.checks} == {"points on the emitter", "normals", "self-consistency", "pdf", "distribution",
-                                           "radiance"}
+    assert {c.name for c in res.checks} == {"points on the emitter", "normals", "self-consistency", "pdf",
+                                            "distribution", "radiance"}
 
 
 def test_student_sampler_passes_in_either_measure(tmp_path, sphere):

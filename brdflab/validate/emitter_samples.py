@@ -38,7 +38,8 @@ What is checked
    r²/cos), the reverse, a missing cos θ_y or r², a missing or doubled selection probability, a triangle's pdf
    1/A_k (or 1/(K·A_k), triangles chosen uniformly) instead of the emitter's.
 4. **Distribution** (against brdflab's method): Pearson's chi-square of the points on the light over n²
-   congruent sub-triangles of every triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected counts N · p_sel · A_k / (A_e n²)
+   congruent sub-triangles of every triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected
+   counts N · p_sel · A_k / (A_e n²)
    (:data:`brdflab.validate.chi2.SIGNIFICANCE`, cells below 5 expected pooled); a failure is explained by
    sub-tests: emitter frequencies against the scene's selection, triangle counts against a *uniform* choice
    of triangles (fits where the area-weighted one does not), points within their triangles.
