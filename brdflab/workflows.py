@@ -216,7 +216,8 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
     >>> sorted({row.integrator for row in st.rows}), st.reference_integrator
     (['direct_ems', 'direct_mats'], 'direct_mis')
     """
-    from brdflab.report.variance import run_study, write_report
+    from brdflab.report.variance import run_study
+    from brdflab.report.variance_page import write_report
     from brdflab.stats.jobs import validate_specs
 
     _load_plugins(plugins)

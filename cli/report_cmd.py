@@ -68,7 +68,9 @@ def _resolution(text: str) -> tuple[int, int]:
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
     from brdflab.report.index import write_index
-    from brdflab.report.variance import REPORT_PATTERNS, run_study, summary, write_report
+    from brdflab.report.variance import REPORT_PATTERNS, run_study
+    from brdflab.report.variance_page import write_report
+    from brdflab.report.variance_summary import summary
     from brdflab.stats.jobs import validate_specs
 
     load_plugins(args)

@@ -11,7 +11,9 @@ import pytest
 from brdflab.cli.main import main
 from brdflab.imageio import write_exr
 from brdflab.report.metrics import compare
-from brdflab.report.variance import relmse_ratio, run_study, write_tables
+from brdflab.report.variance import run_study
+from brdflab.report.variance_page import write_tables
+from brdflab.report.variance_summary import relmse_ratio
 from brdflab.stats.jobs import RenderJob, make_integrator, run_job, run_seed
 from tests.conftest import ROOT
 
@@ -131,7 +133,8 @@ def test_power_heuristic_variant_and_mis_weights(tmp_path):
 
 
 def test_self_made_reference_leaves_its_own_estimator_untested(studies, small_study):
-    from brdflab.report.variance import summary, untested_for_bias
+    from brdflab.report.variance import untested_for_bias
+    from brdflab.report.variance_summary import summary
 
     st = small_study
     assert st.reference_integrator == "direct_mis" and untested_for_bias(st) == (
