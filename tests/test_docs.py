@@ -13,7 +13,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.validate", "brdflab.bsdf.roughconductor",
                    "brdflab.validate.battery", "brdflab.validate.consistency", "brdflab.validate.external",
                    "brdflab.validate.furnace", "brdflab.validate.guard", "brdflab.validate.seeding",
-                   "brdflab.validate.stability", "brdflab.workflows"]
+                   "brdflab.validate.stability", "brdflab.workflows",
+                   "brdflab.validate.sample_files", "brdflab.fitting", "brdflab.validate.emitter_samples"]
 
 
 def test_tutorial_runs(monkeypatch):

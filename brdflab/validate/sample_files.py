@@ -1,0 +1,217 @@
+"""Reading sample files (``brdflab chi2 --samples FILE``, ``--against-emitter``): numeric tables in text (``#``
+comments), ``.npy`` or ``.npz``, through the one input check of :mod:`brdflab.limits` (no FIFO, device or folder,
+the size limit, array headers checked before NumPy allocates, never unpickled), located errors (file, line), and
+the grouping of samples by ω_i (k-d tree pairs, O(n log n)). The checks of BSDF samples are
+:mod:`brdflab.validate.external`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.errors import BrdflabError
+
+#: Components of ω_i equal within this tolerance form one group.
+WI_TOLERANCE = 1e-4
+
+
+def _short(token: str, n: int = 20) -> str:
+    s = token.encode("unicode_escape").decode("ascii")
+    return s if len(s) <= n else s[: n - 3] + "..."
+
+
+@dataclass
+class Samples:
+    """Columns read from a samples file: ``wi``/``wo`` (N, 3), ``pdf`` (N,) or None, ``weight`` (N, 3) or None."""
+
+    path: str
+    wi: np.ndarray
+    wo: np.ndarray
+    pdf: np.ndarray | None
+    weight: np.ndarray | None
+    lines: np.ndarray
+    direction_only: bool = False
+
+
+def _columns(path: str, data: np.ndarray, lines: np.ndarray, ncol: int) -> Samples:
+    if ncol in (3, 4):
+        return Samples(path, np.tile([0.0, 0.0, 1.0], (len(data), 1)), data[:, :3],
+                       data[:, 3] if ncol == 4 else None, None, lines, direction_only=True)
+    return Samples(path, data[:, :3], data[:, 3:6], data[:, 6] if ncol >= 7 else None,
+                   data[:, 7:10] if ncol == 10 else None, lines)
+
+
+ALLOWED = (3, 4, 6, 7, 10)
+
+
+EXPECTED = "6, 7 or 10 columns (wi wo [pdf [w_r w_g w_b]]), or 3/4 for a warp (x y z [pdf])"
+
+
+def read_samples(path: str | Path) -> Samples:
+    """Read a samples file (text, ``.npy`` or ``.npz``); see the module docstring for the format.
+
+    Raises
+    ------
+    BrdflabError
+        ``file:line: what was expected`` for a malformed file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "s.txt"
+    >>> _ = p.write_text("# wi wo pdf\\n0 0 1  0 0 1  0.318\\n0 0 1  0.6 0 0.8  0.2546\\n")
+    >>> s = read_samples(p)
+    >>> s.wo.shape, s.pdf.tolist()
+    ((2, 3), [0.318, 0.2546])
+    """
+    data, lines, ncol = read_table(path, ALLOWED, EXPECTED)
+    return _columns(str(path), data, lines, ncol)
+
+
+def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Read a numeric table in the samples-file conventions (text with ``#`` comments, ``.npy``, or ``.npz``
+    with the key ``samples``): (N, k) float64 data, the file line (text) or row (arrays) of each sample, and
+    k, which must be one of ``allowed`` (``expected`` says so in the error).
+
+    Raises
+    ------
+    BrdflabError
+        ``file:line: what was expected`` for a malformed file.
+    """
+    from brdflab.limits import check_input, read_input
+
+    path = Path(path)
+    # The one input check (limits.check_input/read_input): not found, not a regular file (a directory, a FIFO
+    # that would block, /dev/zero that never ends) and BRDFLAB_MAX_INPUT_MB, before a byte is read.
+    if path.suffix in (".npy", ".npz"):
+        check_input(path, "samples file")
+        arr = _load_array(path)
+        if arr.ndim != 2 or arr.shape[1] not in allowed or not (np.issubdtype(arr.dtype, np.floating)
+                                                                 or np.issubdtype(arr.dtype, np.integer)):
+            raise BrdflabError(f"expected a real numeric (N, k) array with k = {expected}; got "
+                               f"{_short(str(arr.dtype), 20)} shape {arr.shape}", file=path)
+        data = arr.astype(np.float64)
+        bad = ~np.isfinite(data).all(axis=1)
+        if bad.any():
+            raise BrdflabError(f"row {int(np.argmax(bad))}: non-finite value", file=path)
+        return data, np.arange(len(data)), arr.shape[1]
+    rows, lines, ncol, first = [], [], None, None
+    try:
+        text = read_input(path, "samples file").decode("utf-8", errors="strict")
+    except UnicodeDecodeError:
+        raise BrdflabError("not a text file (expected whitespace-separated numbers; binary data: use .npy)",
+                           file=path) from None
+    for num, raw in enumerate(text.splitlines(), 1):
+        tokens = raw.split("#", 1)[0].split()
+        if not tokens:
+            continue
+        if ncol is None:
+            if len(tokens) not in allowed:
+                raise BrdflabError(f"{len(tokens)} columns; expected {expected}", file=path, line=num)
+            ncol, first = len(tokens), num
+        elif len(tokens) != ncol:
+            raise BrdflabError(f"{len(tokens)} columns, but line {first} has {ncol}", file=path, line=num)
+        try:
+            vals = [float(t) for t in tokens]
+        except ValueError:
+            bad = next(t for t in tokens if not _is_float(t))
+            raise BrdflabError(f"'{_short(bad)}' is not a number", file=path, line=num) from None
+        if not all(np.isfinite(vals)):
+            raise BrdflabError("non-finite value (nan/inf)", file=path, line=num)
+        rows.append(vals)
+        lines.append(num)
+    if not rows:
+        raise BrdflabError("no samples (only comments or blank lines)", file=path)
+    return np.array(rows), np.array(lines), ncol
+
+
+def _load_array(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` or ``.npz`` samples file, never unpickled (an object array is refused).
+
+    Before anything is allocated, the array's header is read and its size compared with the bytes that
+    really follow it (a 1 KB file whose header claims 10⁹ rows would otherwise make NumPy allocate 48 GB)
+    and with the memory limit (a zip bomb: a small ``.npz`` that decompresses to gigabytes).
+    """
+    import zipfile
+
+    try:
+        if path.suffix == ".npz":
+            with zipfile.ZipFile(path) as z:
+                infos = {i.filename[:-4] if i.filename.endswith(".npy") else i.filename: i for i in z.infolist()}
+                keys = list(infos)
+                key = "samples" if "samples" in keys else (keys[0] if len(keys) == 1 else None)
+                if key is None:
+                    raise BrdflabError(f"expected an array named 'samples' (found "
+                                       f"{', '.join(_short(k) for k in keys[:5]) or 'none'})", file=path)
+                with z.open(infos[key]) as f:
+                    _check_array_header(f, infos[key].file_size, path, f"the array '{_short(key)}' of {path.name}")
+            with np.load(path, allow_pickle=False) as z:
+                return z[key]
+        with open(path, "rb") as f:
+            _check_array_header(f, os.fstat(f.fileno()).st_size, path, "the array")
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise BrdflabError(f"cannot read as {path.suffix}: {_short(str(exc), 60)}", file=path) from None
+
+
+def _check_array_header(f, size: int, path: Path, what: str) -> None:
+    """Check the ``.npy`` header at the start of ``f`` (``size`` bytes in all) before the array is read."""
+    from numpy.lib import format as npy
+
+    from brdflab.limits import check_memory
+
+    version = npy.read_magic(f)
+    read = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+    shape, _, dtype = read(f)
+    if dtype.hasobject:
+        raise BrdflabError(f"{what} is an object array (it would need unpickling); save numbers", file=path)
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > size - f.tell():
+        raise BrdflabError(f"{what}: the header claims shape {tuple(shape)} ({need:,} bytes), but only "
+                           f"{max(size - f.tell(), 0):,} bytes follow", file=path)
+    check_memory(need, f"{what} (shape {tuple(shape)})")
+
+
+def _is_float(t: str) -> bool:
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
+
+
+def group_by_wi(wi: np.ndarray, tol: float = WI_TOLERANCE) -> list[np.ndarray]:
+    """Index arrays of the samples sharing one ω_i (components equal within ``tol``), in file order.
+
+    Distinct ω_i are cells of a grid of side ``tol``; two cells are merged when their representatives lie
+    within ``tol`` of each other (a value on a cell boundary). The close pairs come from a k-d tree (each
+    representative has at most 26 in neighbouring cells) and the merges are the connected components of
+    that graph, so the cost is O(n log n) in the number of distinct ω_i (10⁶ distinct ω_i in seconds).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    wi = np.asarray(wi, dtype=np.float64)
+    if len(wi) == 0:
+        return []
+    cell = np.floor(wi / tol)
+    if not np.isfinite(cell).all() or np.abs(cell).max() >= 2**52:
+        raise BrdflabError(f"ω_i components must be finite and below {2**52 * tol:.3g} in magnitude")
+    _, first, inv = np.unique(cell.astype(np.int64), axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    n = len(first)
+    pairs = cKDTree(wi[first]).query_pairs(tol, p=np.inf, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
+    labels = comp[inv]
+    # Groups in the order of their first sample in the file.
+    _, first_of = np.unique(labels, return_index=True)
+    order = np.argsort(first_of, kind="stable")
+    sorter = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[sorter], np.arange(len(first_of) + 1))
+    return [sorter[bounds[g]:bounds[g + 1]] for g in order]
