@@ -1,0 +1,79 @@
+"""Binning for the chi-square tests: equal-probability bins on the sphere placed by an independent pilot sample of the
+sampler (θ strips at quantiles, then φ quantiles inside each strip, mixed with uniform directions), histogramming
+and the bins' rectangles in (θ, φ) for the quadrature. Used by :mod:`brdflab.validate.chi2`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from brdflab.validate.quadrature import (  # noqa: F401 (re-exported: the module's former contents)
+    BASE_CELL,
+    _expand,
+    _frame,
+    _gl_rects,
+    _graded_cuts,
+    _neighbour_widths,
+    _split_cells,
+    adaptive_integrate,
+    from_angles,
+    integrate_bins,
+    integrate_rects,
+    integrate_sphere_bins,
+    sphere_cells,
+    sphere_integrand,
+    to_angles,
+)
+
+
+def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bin edges from pilot angles: θ strips at quantiles, then φ edges at quantiles inside each strip.
+
+    Returns ``theta_edges`` (n_theta + 1,) from 0 to π and ``phi_edges`` (n_theta, n_phi + 1) from 0 to 2π,
+    both non-decreasing (a repeated edge is an empty bin of zero width).
+    """
+    if len(theta) < 2 * n_theta:
+        te = np.linspace(0.0, np.pi, n_theta + 1)
+    else:
+        te = np.quantile(theta, np.linspace(0, 1, n_theta + 1))
+    te[0], te[-1] = 0.0, np.pi
+    te = np.maximum.accumulate(np.clip(te, 0.0, np.pi))
+    strip = np.clip(np.searchsorted(te, theta, side="right") - 1, 0, n_theta - 1)
+    pe = np.empty((n_theta, n_phi + 1))
+    for i in range(n_theta):
+        ph = phi[strip == i]
+        pe[i] = np.quantile(ph, np.linspace(0, 1, n_phi + 1)) if len(ph) >= 2 * n_phi \
+            else np.linspace(0.0, 2 * np.pi, n_phi + 1)
+    pe[:, 0], pe[:, -1] = 0.0, 2 * np.pi
+    return te, np.maximum.accumulate(np.clip(pe, 0.0, 2 * np.pi), axis=1)
+
+
+def theta_edges_from_pilot(theta: np.ndarray, n_theta: int) -> np.ndarray:
+    """θ edges at the quantiles of pilot angles, covering [0, π] (see :func:`pilot_bins`)."""
+    return pilot_bins(theta, np.zeros(len(theta)), n_theta, 1)[0]
+
+
+def bin_counts(theta: np.ndarray, phi: np.ndarray, theta_edges: np.ndarray, phi_edges: np.ndarray) -> np.ndarray:
+    """Histogram (n_theta, n_phi) of angles in the bins of :func:`pilot_bins`."""
+    nt, nph = phi_edges.shape[0], phi_edges.shape[1] - 1
+    i = np.clip(np.searchsorted(theta_edges, theta, side="right") - 1, 0, nt - 1)
+    # One sorted key per bin: strip index · 10 + φ edge (φ < 2π < 10), so one searchsorted finds both.
+    keys = (np.arange(nt)[:, None] * 10.0 + phi_edges[:, :-1]).ravel()
+    flat = np.searchsorted(keys, i * 10.0 + np.clip(phi, 0.0, 2 * np.pi), side="right") - 1
+    flat = np.clip(flat, i * nph, i * nph + nph - 1)
+    return np.bincount(flat, minlength=nt * nph).reshape(nt, nph).astype(float)
+
+
+def bin_rects(theta_edges: np.ndarray, phi_edges: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(θ_a, θ_b, φ_a, φ_b) of every bin, flattened in (strip, φ) order."""
+    nph = phi_edges.shape[1] - 1
+    ta = np.repeat(theta_edges[:-1], nph)
+    tb = np.repeat(theta_edges[1:], nph)
+    return ta, tb, phi_edges[:, :-1].ravel(), phi_edges[:, 1:].ravel()
+
+
+def bin_shape(n: int) -> tuple[int, int]:
+    """(n_theta, n_phi) for n samples: 20 × 40 from 20 000 samples, fewer bins (≥ 25 expected each) below."""
+    k = int(np.clip(n // 25, 8, 800))
+    nt = max(2, int(round(np.sqrt(k / 2))))
+    return nt, max(4, k // nt)
