@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 
 def load_scene(path: str | Path, *, integrator: str | None = None, spp: int | None = None,
                seed: int | None = None, width: int | None = None, height: int | None = None,
@@ -91,8 +89,6 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     >>> stats.spp
     2
     """
-    from brdflab.render import render as _render
+    from brdflab.render import render_image
 
-    image, stats = _render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster)
-    image = np.asarray(image, dtype=np.float32)
-    return (image, stats) if return_stats else image
+    return render_image(scene, spp, seed, workers, return_stats=return_stats, cluster=cluster)

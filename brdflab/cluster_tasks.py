@@ -196,7 +196,7 @@ def _render_task(ref: SceneRef, blob: bytes | None, batch: list[tuple], seed: in
     """A Dask task: render ``batch`` units; return (per-unit (samples, dropped, rays, Embree s), the tile
     films concatenated, the worker's address, busy seconds)."""
     from brdflab.alloc import tune_allocator
-    from brdflab.render import _render_unit
+    from brdflab.workers import _render_unit
 
     t0 = time.perf_counter()
     tune_allocator()

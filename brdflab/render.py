@@ -31,22 +31,12 @@ spp images as checkpoints (:func:`render` ``on_pass``), each with its elapsed ti
 
 from __future__ import annotations
 
-import functools
 import itertools
-import math
-import mmap
-import multiprocessing
-import os
-import signal
 import sys
 import threading
 import time
 import types
-from collections import deque
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
-from contextlib import nullcontext
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,24 +45,37 @@ from brdflab.alloc import tune_allocator
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
 from brdflab.limits import WORKER_BYTES, check_memory, check_spp, check_work
-from brdflab.scene.geometry import RayStats
+from brdflab.workers import (  # noqa: F401 (re-exported: the module's former contents)
+    _ACTIVE_POOLS,
+    _FORK_LOCK,
+    _FORK_SCENE,
+    _FORK_SLOTS,
+    _PARENT_PID,
+    FORK_WORKERS,
+    IN_FLIGHT,
+    PR_SET_PDEATHSIG,
+    TASK_UNITS,
+    UNIT_SAMPLES,
+    ForkPool,
+    _die_with_parent,
+    _executor,
+    _pixel_offsets,
+    _process_units,
+    _render_unit,
+    _render_unit_inner,
+    _results,
+    _worker_init,
+    kill_workers,
+    max_tile_size,
+    tiles_for,
+)
 
-#: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
-UNIT_SAMPLES = 1 << 14
-#: Tasks queued per worker ahead of the one being merged.
-IN_FLIGHT = 3
-#: Units per task sent to a forked worker (fewer messages for the main process to handle).
-TASK_UNITS = 8
 #: Samples per pixel of a pass when no intermediate images are asked for: a 16 k-sample unit then covers
 #: 16 × 16 pixels, whose tile film (22 × 22 with the filter's border) is a third of a 16-spp unit's (38 × 38):
 #: less to splat, transfer and merge per sample (Cornell box, 2 workers, 64 spp: 4.94 → 4.75 s).
 BATCH_PASS = 64
 #: Most worker processes accepted (each costs memory, see :func:`render_memory`).
 MAX_WORKERS = 256
-#: Workers are forked processes on Linux; elsewhere threads (macOS system libraries are not fork-safe).
-FORK_WORKERS = sys.platform.startswith("linux")
-
-
 def iter_passes(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (),
                 progressive: bool = True) -> Iterator[int]:
     """Sizes of the sample passes, lazily; they sum to ``spp``.
@@ -102,13 +105,6 @@ def pass_schedule(spp: int, max_pass: int = 16, checkpoints: tuple[int, ...] = (
     return list(iter_passes(spp, max_pass, checkpoints, progressive))
 
 
-def tiles_for(width: int, height: int, pass_spp: int) -> list[tuple[int, int, int, int]]:
-    """Square tiles (x0, y0, w, h) sized so each unit holds about :data:`UNIT_SAMPLES` samples."""
-    side = int(np.clip(math.sqrt(UNIT_SAMPLES / pass_spp), 16, 256)) // 8 * 8
-    return [(x, y, min(side, width - x), min(side, height - y))
-            for y in range(0, height, side) for x in range(0, width, side)]
-
-
 def render_memory(width: int, height: int, filt, workers: int, max_tile: tuple[int, int]) -> int:
     """Estimated bytes a render needs besides the scene: the image film and the pass film (4 float64
     planes with the filter's border), the final image and its temporaries, the shared result slots of
@@ -118,12 +114,6 @@ def render_memory(width: int, height: int, filt, workers: int, max_tile: tuple[i
     image = (3 * 4 + 3 * 8 * 2) * width * height
     slots = IN_FLIGHT * workers * TASK_UNITS * 4 * 8 * (max_tile[0] + 2 * b) * (max_tile[1] + 2 * b)
     return films + image + (slots + workers * WORKER_BYTES if workers > 1 else 0)
-
-
-def max_tile_size(width: int, height: int) -> tuple[int, int]:
-    """(w, h) of the largest tile of any pass: that of a 1-spp pass (tiles shrink as passes grow)."""
-    first = tiles_for(width, height, 1)[0]
-    return first[2], first[3]
 
 
 @dataclass
@@ -165,236 +155,6 @@ class RenderStats:
         if self.dropped:
             s += f"; {self.dropped} non-finite or negative samples dropped"
         return s
-
-
-def _render_unit(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
-                 seed: int) -> tuple[Film, int, int]:
-    """Render one (pass, tile) unit into a tile film; returns (film, samples, dropped samples)."""
-    # Non-finite or negative samples are counted and dropped below (and reported in the summary); NumPy's
-    # floating-point warnings about them would only reach the user unlocated.
-    with np.errstate(all="ignore"):
-        return _render_unit_inner(scene, pass_index, tile_index, tile, spp, seed)
-
-
-def _render_unit_inner(scene, pass_index: int, tile_index: int, tile: tuple[int, int, int, int], spp: int,
-                       seed: int) -> tuple[Film, int, int]:
-    x0, y0, w, h = tile
-    cam = scene.camera
-    rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence([seed, pass_index, tile_index])))
-    n = w * h * spp
-    px, py = _pixel_offsets(w, h, spp)
-    jitter = rng.random((2, n))
-    sx = jitter[0]
-    sx += px
-    sx += x0
-    sy = jitter[1]
-    sy += py
-    sy += y0
-    o, d, tmax = cam.generate_rays(sx, sy)
-    L = scene.integrator.li(scene, o, d, tmax, rng)
-    film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h)
-    # Two reductions over the whole batch find the (rare) non-finite or negative samples; only then
-    # is the per-sample mask built.
-    dropped = 0
-    if not (np.isfinite(L.sum()) and L.min() >= 0):
-        good = np.all(np.isfinite(L), axis=1) & np.all(L >= 0, axis=1)
-        dropped = int(n - good.sum())
-        sx, sy, L = sx[good], sy[good], L[good]
-    film.splat(sx, sy, L)
-    return film, n, dropped
-
-
-@functools.lru_cache(maxsize=16)
-def _pixel_offsets(w: int, h: int, spp: int) -> tuple[np.ndarray, np.ndarray]:
-    """Column and row (float64, read-only) of each sample of a w × h tile with ``spp`` samples per
-    pixel, pixel-major (the integer divisions are done once per tile shape)."""
-    pix = np.repeat(np.arange(w * h), spp)
-    px, py = (pix % w).astype(np.float64), (pix // w).astype(np.float64)
-    px.flags.writeable = py.flags.writeable = False
-    return px, py
-
-
-#: The scene of the render in progress, inherited by forked workers (see :func:`_process_units`).
-_FORK_SCENE = None
-#: Shared-memory result slots of the forked workers, one per task in flight (see :func:`_results`).
-_FORK_SLOTS: np.ndarray | None = None
-_FORK_LOCK = threading.Lock()
-
-
-#: Process id of the process that forked the workers (checked by the workers: see :func:`_worker_init`).
-_PARENT_PID = 0
-#: Process pools of renders in progress, so that :func:`kill_workers` can end their processes at once.
-_ACTIVE_POOLS: set = set()
-PR_SET_PDEATHSIG = 1
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``)."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
-
-
-def _worker_init() -> None:
-    """In a forked worker: die with the parent, leave SIGINT/SIGTERM/SIGHUP to it, count rays afresh.
-
-    The parent handles the signals (it stops the render and writes the completed passes) and ends the
-    workers itself; a terminal's SIGHUP or a ``kill`` of the process group must not kill a worker in the
-    middle of a task. If the parent dies in any way (even SIGKILL), the kernel kills the workers
-    (``PR_SET_PDEATHSIG``); the parent-pid check covers a parent that died before the prctl call and
-    systems without prctl (see :func:`_process_units`).
-    """
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, signal.SIG_IGN)
-    _die_with_parent()
-    if os.getppid() != _PARENT_PID:
-        os._exit(1)
-    _FORK_SCENE.geometry.stats = RayStats()  # a fresh lock: the parent's may have been held at fork
-
-
-def kill_workers() -> None:
-    """SIGKILL the worker processes of every render in progress (a second Ctrl-C/SIGTERM: exit at once)."""
-    for pool in list(_ACTIVE_POOLS):
-        for proc in list((getattr(pool, "_processes", None) or {}).values()):
-            try:
-                os.kill(proc.pid, signal.SIGKILL)
-            except (OSError, AttributeError):
-                pass
-
-
-def _process_units(batch: list[tuple], slot: int) -> list[tuple[int, int, int, int, float]]:
-    """Units in a forked worker. Their tile films go, one after the other, into the shared result slot
-    ``slot``; returns per unit (offset in the slot, samples, dropped, rays, seconds in Embree)."""
-    if os.getppid() != _PARENT_PID:  # the parent is gone: nobody will read the result
-        os._exit(1)
-    scene = _FORK_SCENE
-    st = scene.geometry.stats
-    buf = _FORK_SLOTS[slot]
-    out, off = [], 0
-    for u in batch:
-        st.reset()
-        film, n, dropped = _render_unit(scene, *u)
-        size = film.data.size
-        buf[off:off + size] = film.data.ravel()
-        out.append((off, n, dropped, st.rays, st.seconds))
-        off += size
-    return out
-
-
-def _executor(workers: int) -> tuple[Executor | None, bool]:
-    """(pool, is a process pool): forked processes where available, else threads; None for one worker."""
-    if workers <= 1:
-        return None, False
-    if FORK_WORKERS and "fork" in multiprocessing.get_all_start_methods():
-        return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                   initializer=_worker_init), True
-    return ThreadPoolExecutor(workers), False
-
-
-def _results(scene, units: Iterable[tuple], seed: int, workers: int, halt: threading.Event) -> Iterator[tuple]:
-    """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``.
-
-    ``units`` (an iterable of (pass, tile, (x0, y0, w, h), spp)) is consumed lazily, a few tasks ahead of the
-    merge. Rays and seconds are those counted in worker processes (0 for in-process units, which count in
-    ``scene.geometry.stats`` directly).
-    """
-    cam = scene.camera
-    units = iter(units)
-    max_tile = max_tile_size(cam.width, cam.height)
-    pool, forked = _executor(workers)
-    if pool is None:
-        for u in units:
-            if halt.is_set():
-                return
-            film, n, dropped = _render_unit(scene, *u, seed)
-            yield film, n, dropped, 0, 0.0
-        return
-    global _FORK_SCENE, _FORK_SLOTS, _PARENT_PID
-    border = Film(1, 1, scene.filter).border
-    with _FORK_LOCK if forked else nullcontext():
-        free: deque = deque()
-        if forked:
-            _FORK_SCENE = scene
-            _PARENT_PID = os.getpid()
-            # Tile films come back through shared memory (mapped before the workers fork), not pickled
-            # through a pipe: that took a third of the main process's CPU time.
-            slot_len = TASK_UNITS * 4 * (max_tile[1] + 2 * border) * (max_tile[0] + 2 * border)
-            n_slots = IN_FLIGHT * workers
-            _FORK_SLOTS = np.frombuffer(mmap.mmap(-1, n_slots * slot_len * 8), np.float64).reshape(n_slots, slot_len)
-            free.extend(range(n_slots))
-        _ACTIVE_POOLS.add(pool)
-        try:
-            pending: deque = deque()
-            k = TASK_UNITS if forked else 1
-
-            def submit() -> None:
-                b = list(itertools.islice(units, k))
-                if not b:
-                    return
-                if forked:
-                    slot = free.popleft()
-                    pending.append((b, slot, pool.submit(_process_units, [(*u, seed) for u in b], slot)))
-                else:
-                    pending.append((b, None, pool.submit(_render_unit, scene, *b[0], seed)))
-
-            for _ in range(IN_FLIGHT * workers):
-                submit()
-            while pending and not halt.is_set():
-                b, slot, fut = pending.popleft()
-                try:
-                    res = fut.result()
-                except SystemExit as exc:  # sys.exit() in a worker's task (a plugin outside its checks)
-                    raise BrdflabError(f"a render worker called sys.exit({clean(exc.code, 30)}); no image "
-                                       "written") from None
-                except BrokenProcessPool:
-                    raise BrdflabError("a render worker process died unexpectedly (killed by the system, "
-                                       "perhaps out of memory); no image written") from None
-                if forked:
-                    for u, (off, n, dropped, rays, secs) in zip(b, res, strict=True):
-                        x0, y0, w, h = u[2]
-                        shape = (4, h + 2 * border, w + 2 * border)
-                        data = _FORK_SLOTS[slot, off:off + shape[0] * shape[1] * shape[2]].reshape(shape)
-                        # The consumer adds the tile before asking for the next one; the slot is reused
-                        # only after the whole task has been consumed.
-                        film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h, data)
-                        yield film, n, dropped, rays, secs
-                    free.append(slot)
-                else:
-                    yield (*res, 0, 0.0)
-                submit()
-        except GeneratorExit:  # the caller stopped early (stop request, time limit): running tasks finish
-            raise
-        except BaseException:
-            # An error or a KeyboardInterrupt: the queued and running units are of no use; end the
-            # workers now instead of waiting for their tasks.
-            if forked:
-                kill_workers()
-            raise
-        finally:
-            try:
-                pool.shutdown(wait=True, cancel_futures=True)
-            finally:
-                _ACTIVE_POOLS.discard(pool)
-                _FORK_SCENE = _FORK_SLOTS = None
-
-
-class ForkPool:
-    """The built-in executor: forked worker processes on this machine (threads off Linux; in-process for
-    one worker). :class:`brdflab.cluster.Cluster` implements the same interface on a Dask cluster."""
-
-    def __init__(self, workers: int | None = None) -> None:
-        self.workers = workers or os.cpu_count() or 1
-
-    def results(self, scene, units: Iterable[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
-        """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``."""
-        return _results(scene, units, seed, self.workers, halt)
-
-    def finish(self, image: np.ndarray, stats: RenderStats) -> None:
-        """Called with the image and stats when the render ends (nothing to do here)."""
 
 
 def render(
@@ -550,14 +310,22 @@ def _cluster_executor(cluster):
     return cluster if isinstance(cluster, Cluster) else Cluster(cluster, close_after_render=True)
 
 
+def render_image(scene, spp: int | None = None, seed: int | None = None, workers: int | None = None, *,
+                 return_stats: bool = False, cluster=None):
+    """:func:`render` as the public API gives it (``bl.render``): the image as float32, and the stats only
+    when asked for (documented in :func:`brdflab.api.render`)."""
+    image, stats = render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster)
+    image = np.asarray(image, dtype=np.float32)
+    return (image, stats) if return_stats else image
+
+
 class _CallableModule(types.ModuleType):
     """``brdflab.render`` is both this module and the public function :func:`brdflab.api.render`: importing a
-    submodule binds its name in the package, so the module itself forwards calls to the API function."""
+    submodule binds its name in the package, so the module itself forwards calls to :func:`render_image` (what
+    the API function does; no import of :mod:`brdflab.api` here, which sits above this module)."""
 
     def __call__(self, *args, **kwargs):
-        from brdflab.api import render as api_render
-
-        return api_render(*args, **kwargs)
+        return render_image(*args, **kwargs)
 
 
 sys.modules[__name__].__class__ = _CallableModule
