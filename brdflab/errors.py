@@ -118,3 +118,25 @@ class MeshError(BrdflabError):
 
 class ImageError(BrdflabError):
     """An image (EXR/PNG) cannot be read or written, or images do not match."""
+
+
+def first_line(exc: BaseException, n: int = 160) -> str:
+    """``Type: first line of the message`` of an exception, cleaned and cut for a one-line error."""
+    lines = str(exc).strip().splitlines()
+    return clean(f"{type(exc).__name__}: {lines[0] if lines else ''}", n)
+
+
+def code_location(exc: BaseException) -> str:
+    """`` (at FILE:LINE)`` of the innermost traceback frame outside brdflab itself — a plugin's own line — or
+    of a SyntaxError; empty when the error has no such frame."""
+    import traceback
+
+    if isinstance(exc, SyntaxError) and exc.filename:
+        return f" (at {clean(exc.filename, 100)}:{exc.lineno})"
+    own = str(Path(__file__).resolve().parent)
+    frames = [f for f in traceback.extract_tb(exc.__traceback__)
+              if not str(Path(f.filename).resolve()).startswith(own) and "importlib" not in f.filename]
+    if not frames:
+        return ""
+    f = frames[-1]
+    return f" (at {clean(f.filename, 100)}:{f.lineno})"

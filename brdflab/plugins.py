@@ -16,8 +16,9 @@ A BSDF's parameters are the keyword arguments of its ``__init__``, named as in t
 (``<float name="exponent" value="20"/>`` → ``exponent=20.0``). Their kinds are the class's ``KNOWN`` table
 (name → ``"float"``, ``"integer"``, ``"boolean"``, ``"string"`` or ``"color"``) when it has one, otherwise the
 types of the defaults (``float`` → float, ``int`` → integer, ``bool`` → boolean, ``str`` → string, a
-sequence of 3 numbers → color). The same conversion serves the scene loader and ``--param K=V``: unknown
-names, wrong types and non-finite numbers are errors naming the parameter (and file and line).
+sequence of 3 numbers → color; :mod:`brdflab.parameters`). The same conversion serves the scene loader and
+``--param K=V``: unknown names, wrong types and non-finite numbers are errors naming the parameter (and file
+and line).
 
 A class may declare ``sweep = {"exponent": [5.0, 20.0, 100.0]}``: the values ``brdflab validate`` runs its
 battery over (an ``alpha`` parameter is swept over the usual roughness grid without it).
@@ -53,46 +54,19 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import inspect
 import sys
-import traceback
 from collections.abc import Iterable
 from difflib import get_close_matches
 from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from brdflab.builtin_types import BUILTIN, UNSUPPORTED
+from brdflab.builtin_types import is_builtin_class as _is_builtin_class
+from brdflab.errors import BrdflabError, SceneError, clean, code_location, first_line
+from brdflab.parameters import _KINDS, _init_defaults, build_bsdf, convert_value, parameter_kinds, properties_for  # noqa: F401 (re-exported)
+from brdflab.scene.properties import PropertyList  # noqa: F401 (re-exported)
 
-from brdflab.errors import BrdflabError, SceneError, clean
-from brdflab.scene.properties import PropertyList
-
-#: Built-in scene-object types: tag → type name → ``"module:Class"`` (imported on first use).
-BUILTIN: dict[str, dict[str, str]] = {
-    "bsdf": {
-        "diffuse": "brdflab.bsdf.diffuse:Diffuse",
-        "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
-        "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
-        "measured": "brdflab.bsdf.measured:Measured",
-    },
-    "emitter": {
-        "area": "brdflab.emitter.area:AreaEmitter",
-        "pointlight": "brdflab.emitter.point:PointLight",
-        "environment": "brdflab.emitter.environment:EnvironmentEmitter",
-    },
-    "integrator": {
-        "normals": "brdflab.integrator.normals:NormalsIntegrator",
-        "direct_ems": "brdflab.integrator.direct_ems:DirectEMS",
-        "direct_mats": "brdflab.integrator.direct_mats:DirectMATS",
-        "direct_mis": "brdflab.integrator.direct_mis:DirectMIS",
-        "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
-    },
-}
-#: Nori plugins brdflab deliberately leaves out (no path tracing, no delta BSDFs).
-UNSUPPORTED = {
-    "bsdf": ("mirror", "dielectric", "roughdielectric"),
-    "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
-}
 #: Entry-point group through which installed packages register BSDFs.
 ENTRY_POINT_GROUP = "brdflab.bsdfs"
 
@@ -104,7 +78,6 @@ _ENTRY_POINTS_LOADED = False
 #: ``--plugin`` specs loaded in this process, in order (forwarded to cluster workers).
 LOADED_SPECS: list[str] = []
 
-_KINDS = ("float", "integer", "boolean", "string", "color")
 
 
 # -- registration ---------------------------------------------------------------------------------------
@@ -145,10 +118,6 @@ def register_bsdf(cls: type, name: str | None = None, *, origin: str = "register
     _USER_BSDFS[name] = cls
     _ORIGIN[name] = origin
     return cls
-
-
-def _is_builtin_class(cls: type) -> bool:
-    return any(f"{cls.__module__}:{cls.__qualname__}" == t for t in BUILTIN["bsdf"].values())
 
 
 def load_plugin(spec: str | Path, base: str | Path | None = None) -> list[str]:
@@ -265,18 +234,8 @@ def _register_loaded(classes: list[type], spec: str, origin: str) -> list[str]:
     return names
 
 
-def plugin_location(exc: BaseException) -> str:
-    """`` (at FILE:LINE)`` of the innermost traceback frame outside brdflab itself — the plugin's own line —
-    or of a SyntaxError; empty when the error has no such frame."""
-    if isinstance(exc, SyntaxError) and exc.filename:
-        return f" (at {_short(exc.filename, 100)}:{exc.lineno})"
-    own = str(Path(__file__).resolve().parent)
-    frames = [f for f in traceback.extract_tb(exc.__traceback__)
-              if not str(Path(f.filename).resolve()).startswith(own) and "importlib" not in f.filename]
-    if not frames:
-        return ""
-    f = frames[-1]
-    return f" (at {_short(f.filename, 100)}:{f.lineno})"
+#: The plugin's own file and line of an error (:func:`brdflab.errors.code_location`).
+plugin_location = code_location
 
 
 def load_plugins(specs: Iterable[str | Path] | None) -> list[str]:
@@ -365,53 +324,6 @@ def bsdf_class(name: str) -> type:
     return plugin_class("bsdf", name)
 
 
-# -- parameters -------------------------------------------------------------------------------------------
-def _init_defaults(cls: type) -> dict[str, Any]:
-    """``__init__`` keyword parameters → defaults (``inspect.Parameter.empty`` where there is none)."""
-    sig = inspect.signature(cls.__init__)
-    out = {}
-    for p in list(sig.parameters.values())[1:]:
-        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        out[p.name] = p.default
-    return out
-
-
-def _kind_of(value: Any) -> str | None:
-    if isinstance(value, bool | np.bool_):
-        return "boolean"
-    if isinstance(value, int | np.integer):
-        return "integer"
-    if isinstance(value, float | np.floating):
-        return "float"
-    if isinstance(value, str):
-        return "string"
-    if isinstance(value, list | tuple | np.ndarray) and np.shape(value) == (3,):
-        return "color"
-    return None
-
-
-def parameter_kinds(cls: type, origin: str | None = None) -> dict[str, str]:
-    """Parameter name → kind (``float``, ``integer``, ``boolean``, ``string``, ``color``) of a BSDF class.
-
-    Built-ins declare theirs in ``KNOWN``; for other classes they come from the ``__init__`` defaults.
-    """
-    known = cls.__dict__.get("KNOWN") or (getattr(cls, "KNOWN", None) if _is_builtin_class(cls) else None)
-    if known is not None:
-        return dict(known)
-    out = {}
-    for name, default in _init_defaults(cls).items():
-        kind = _kind_of(default)
-        if kind is None:
-            where = origin or cls.__name__
-            what = "has no default" if default is inspect.Parameter.empty else \
-                f"has a default of type {type(default).__name__}"
-            raise BrdflabError(f"{where}: parameter '{name}' of {cls.__name__} {what}; brdflab needs a default "
-                               "of type float, int, bool, str or a 3-sequence (colour) to convert scene values")
-        out[name] = kind
-    return out
-
-
 def bsdf_parameters(name: str, cls: type | None = None) -> dict[str, Any]:
     """Parameter name → default value of BSDF type ``name`` (its ``__init__`` keyword defaults); ``cls``, when
     given, is the already-resolved class (``name`` is then not looked up)."""
@@ -424,38 +336,6 @@ def bsdf_parameters(name: str, cls: type | None = None) -> dict[str, Any]:
     return {k: defaults[k] for k in kinds}
 
 
-def convert_value(kind: str, text: str, what: str) -> Any:
-    """Convert the text of a ``--param`` value to ``kind``; raise a BrdflabError naming ``what``."""
-    t = text.strip()
-    try:
-        if kind == "float":
-            v = float(t)
-        elif kind == "integer":
-            v = int(t)
-        elif kind == "boolean":
-            if t.lower() not in ("true", "false", "1", "0", "yes", "no"):
-                raise ValueError
-            return t.lower() in ("true", "1", "yes")
-        elif kind == "string":
-            return text
-        elif kind == "color":
-            parts = [float(x) for x in t.replace(" ", ",").split(",") if x]
-            if len(parts) == 1:
-                parts *= 3
-            if len(parts) != 3:
-                raise ValueError
-            v = np.array(parts)
-        else:
-            raise ValueError
-    except (ValueError, OverflowError):
-        expect = {"color": "a colour (one number or three, e.g. 0.9,0.8,0.7)", "integer": "an integer",
-                  "boolean": "true or false", "float": "a number"}.get(kind, kind)
-        raise BrdflabError(f"{what}: expected {expect}, got '{_short(text)}'") from None
-    if not np.all(np.isfinite(v)):
-        raise BrdflabError(f"{what}: expected a finite value, got '{_short(text)}'")
-    return v
-
-
 def property_list(name: str, params: dict[str, Any] | None, owner: str | None = None,
                   cls: type | None = None) -> PropertyList:
     """A :class:`PropertyList` for BSDF ``name`` from ``params`` (strings are converted by kind).
@@ -464,26 +344,7 @@ def property_list(name: str, params: dict[str, Any] | None, owner: str | None = 
     is then only used in messages and is never looked up.
     """
     cls = cls if cls is not None else bsdf_class(name)
-    kinds = parameter_kinds(cls)
-    props = PropertyList(owner or f'bsdf "{name}"')
-    for key, value in (params or {}).items():
-        if key not in kinds:
-            hint = get_close_matches(key, list(kinds), n=1)
-            raise BrdflabError(f"{props.owner}: unknown parameter '{_short(key)}'"
-                               + (f" (did you mean '{hint[0]}'?)" if hint else "")
-                               + f"; its parameters: {', '.join(kinds) or 'none'}")
-        kind = kinds[key]
-        what = f"{props.owner} parameter '{key}'"
-        if isinstance(value, str):
-            value = convert_value(kind, value, what)
-        elif kind == "color":
-            value = np.broadcast_to(np.asarray(value, float), (3,)).copy()
-        elif kind in ("float", "integer") and not isinstance(value, bool):
-            value = float(value) if kind == "float" else int(value)
-        if kind in ("float", "color") and not np.all(np.isfinite(value)):
-            raise BrdflabError(f"{what}: expected a finite value, got {value}")
-        props.set(key, kind, value)
-    return props
+    return properties_for(cls, name, params, owner)
 
 
 def make_bsdf(name: str, params: dict[str, Any] | None = None, alpha: float | None = None) -> Any:
@@ -525,39 +386,6 @@ def make_bsdf(name: str, params: dict[str, Any] | None = None, alpha: float | No
     return build_bsdf(cls, property_list(name, params))
 
 
-def build_bsdf(cls: type, props: PropertyList) -> Any:
-    """Construct ``cls`` from a property list: its own ``from_properties`` for built-ins, otherwise the
-    generic mapping of property names to ``__init__`` keyword arguments (with the kinds checked)."""
-    if _is_builtin_class(cls) or "from_properties" in cls.__dict__:
-        return cls.from_properties(props)
-    kinds = parameter_kinds(cls)
-    props.check_known(kinds)
-    kwargs = {}
-    for key in props.names():
-        kind = kinds[key]
-        getter = {"float": props.get_float, "integer": props.get_int, "boolean": props.get_bool,
-                  "string": props.get_string, "color": props.get_color}[kind]
-        if kind == "float" and key in props and props._props[key].kind == "integer":
-            value = float(props.get_int(key))
-        else:
-            value = getter(key)
-        if kind in ("float", "color") and not np.all(np.isfinite(value)):
-            raise props.error(key, f"'{key}' must be finite, got {value}")
-        kwargs[key] = value
-    try:
-        return cls(**kwargs)
-    except (ValueError, TypeError) as exc:  # the plugin's own argument checks
-        raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) rejected its parameters: "
-                          f"{_first_line(exc)}{plugin_location(exc)}") from exc
-    except BrdflabError:
-        raise
-    except BaseException as exc:  # anything else the plugin's constructor raises (even SystemExit)
-        if isinstance(exc, KeyboardInterrupt):
-            raise
-        raise props.error(None, f"{cls.__name__}({', '.join(kwargs)}) failed: {_first_line(exc)}"
-                          f"{plugin_location(exc)}") from exc
-
-
 # -- helpers ----------------------------------------------------------------------------------------------
 def _short(text: str, n: int = 60) -> str:
     """An echoed value made safe for a one-line message (:func:`brdflab.errors.clean`)."""
@@ -565,8 +393,7 @@ def _short(text: str, n: int = 60) -> str:
 
 
 def _first_line(exc: BaseException) -> str:
-    lines = str(exc).strip().splitlines()
-    return _short(f"{type(exc).__name__}: {lines[0] if lines else ''}", 160)
+    return first_line(exc)
 
 
 def unregister_bsdf(name: str) -> None:
