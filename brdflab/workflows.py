@@ -57,10 +57,10 @@ def _load_plugins(plugins) -> None:
 
 def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int = 32, runs: int = 4,
           seed: int = 0, ref=None, ref_var=None, user_spp: int | None = None, block: int = 16, levels: int = 4,
-          alpha: float = 0.01, workers: int | None = None, output: str | Path | None = None,
+          alpha: float = 0.01, workers: int | None = None, output: str | Path | None = None, force: bool = False,
           plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-          resolution: tuple[int, int] | None = None):
-    """Is a render an unbiased estimate of ``scene``? (``brdflab check``)
+          resolution: tuple[int, int] | None = None, where_spp: int = 8, cluster=None):
+    """Is a render an unbiased estimate of ``scene``? (``brdflab check``; the command calls this function)
 
     Parameters
     ----------
@@ -78,12 +78,18 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
         Samples per pixel of the renders (default: their ``brdflab_spp`` attribute, else the scene's).
     block, levels, alpha
         Block side (px), number of block sizes block·2^i, family-wise false-alarm level.
-    output
-        A folder for ``check.html``, ``check.json`` and the maps (nothing is written without it).
+    output, force
+        A folder for ``check.html``, ``check.json`` and the maps (nothing is written without it), checked
+        before the work (:func:`brdflab.outputs.prepare_folder`); ``force`` replaces files brdflab did not write.
     plugins
         ``--plugin`` specs the scene needs.
     resolution
         (width, height) replacing the scene camera's, for brdflab's runs and the renders alike (quick checks).
+    where_spp
+        Samples per pixel of the auxiliary renders that say where and what for a biased render (0: off;
+        :mod:`brdflab.stats.attribution`); the result's ``attribution`` holds it.
+    cluster
+        A :class:`brdflab.cluster.Cluster` to run brdflab's runs on (one job each).
 
     Returns
     -------
@@ -99,8 +105,12 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     >>> res.consistent, res.to_dict()["verdict"].split(":")[0]
     (True, 'consistent')
     """
+    from brdflab.errors import clean
+    from brdflab.outputs import prepare_folder, record_outputs
+    from brdflab.report.check_page import CHECK_FILES, write_check
     from brdflab.scene.loader import load_scene
-    from brdflab.stats.check import run_check
+    from brdflab.stats.attribution import attribute_check
+    from brdflab.stats.check import check_inputs, run_check
     from brdflab.stats.jobs import make_integrator
 
     if spp < 1 or runs < 1:
@@ -110,29 +120,52 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     if not 0 < alpha < 1:
         raise BrdflabError(f"alpha must be in (0, 1), got {alpha}")
     if ref_var is not None and ref is None:
-        raise BrdflabError("ref_var needs ref")
+        raise BrdflabError("--ref-var needs --ref")
     _load_plugins(plugins)
     scene = Path(scene)
     sc = load_scene(scene)
     integrator = integrator or sc.integrator_type
     make_integrator(integrator)
-    paths = list(renders) if isinstance(renders, list | tuple) else [renders]
-    images = [_image(r, f"render {i + 1}") for i, r in enumerate(paths)]
+    items = list(renders) if isinstance(renders, list | tuple) else [renders]
+    images = [_image(r, f"render {i + 1}") for i, r in enumerate(items)]
     ref_img = None if ref is None else _image(ref, "ref")
     var_img = None if ref_var is None else _image(ref_var, "ref_var")
-    w, h = resolution or (sc.camera.width, sc.camera.height)
-    for i, img in enumerate(images):
-        if img.shape[:2] != (h, w):
-            raise BrdflabError(f"render {i + 1}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
-                               f"{w}×{h}")
-    res = run_check(images, scene, integrator, spp, runs, seed, ref_img, var_img, block, alpha, workers,
-                    progress=progress, user_spp=user_spp or sc.spp, levels=levels, resolution=resolution)
+    names = [clean(p, 80) if isinstance(p, str | Path) else f"render {i + 1}" for i, p in enumerate(items)]
+    check_inputs(images, var_img, user_spp, names, block, ref_img)
+    paths = [Path(p) if isinstance(p, str | Path) else Path(f"render_{i + 1}") for i, p in enumerate(items)]
     if output is not None:
-        from brdflab.report.check_page import write_check
-
-        names = [Path(p) if isinstance(p, str | Path) else Path(f"render_{i + 1}") for i, p in enumerate(paths)]
-        write_check(Path(output), names, images, res, scene)
+        inputs = [*(p for p in items if isinstance(p, str | Path)), scene, *sc.inputs,
+                  *(p for p in (ref, ref_var) if isinstance(p, str | Path))]
+        prepare_folder(Path(output), list(CHECK_FILES), inputs, force)  # before the work, not after it
+    w, h = resolution or (sc.camera.width, sc.camera.height)
+    for what, img in [*zip(names, images, strict=True), ("ref", ref_img), ("ref_var", var_img)]:
+        if img is not None and img.shape[:2] != (h, w):
+            raise BrdflabError(f"{what}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders {w}×{h}")
+    first = items[0] if isinstance(items[0], str | Path) else None
+    user_spp = user_spp or (_spp_attribute(Path(first)) if first is not None else None) or sc.spp
+    say = progress or (lambda m: None)
+    if ref_img is None:
+        say(f"brdflab estimate: {runs} runs × {spp} spp of {integrator} at {w}×{h}")
+    # On a cluster each independent run is one job, rendered by one single-threaded worker (the scene is loaded
+    # there from its path: a shared file system); the runs' seeds make the result placement-free.
+    res = run_check(images, scene, integrator, spp, runs, seed, ref_img, var_img, block, alpha,
+                    1 if cluster else workers, progress=say, user_spp=user_spp, resolution=resolution,
+                    map_fn=map if cluster is None else cluster.imap, levels=levels)
+    res.attribution = attribute_check(res, images, scene, integrator, seed, where_spp, workers, say)
+    if output is not None:
+        write_check(Path(output), paths, images, res, scene, attribution=res.attribution)
+        record_outputs(Path(output), list(CHECK_FILES))
     return res
+
+
+def _spp_attribute(path: Path) -> int | None:
+    """The ``brdflab_spp`` header attribute of an EXR written by brdflab, if any."""
+    from brdflab.imageio import read_exr_header
+
+    try:
+        return int(read_exr_header(path).get("brdflab_spp", 0)) or None
+    except (ValueError, TypeError, BrdflabError):
+        return None
 
 
 @dataclass

@@ -7,10 +7,9 @@ import sys
 from pathlib import Path
 
 from brdflab.cli.argtypes import count, number, seed
-from brdflab.errors import BrdflabError
 
 from .cluster_options import add_cluster_options, cluster_from_args
-from .options import add_plugin_option, load_plugins
+from .options import add_plugin_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,70 +54,19 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the check; exit status 0 consistent, 1 biased."""
-    from brdflab.errors import clean
-    from brdflab.imageio import read_exr
-    from brdflab.outputs import prepare_folder, record_outputs
-    from brdflab.report.check_page import CHECK_FILES, write_check
-    from brdflab.scene.loader import load_scene
-    from brdflab.stats.check import check_inputs, run_check
-    from brdflab.stats.jobs import make_integrator
+    """Run the check (:func:`brdflab.workflows.check`); exit status 0 consistent, 1 biased."""
+    from brdflab.stats.attribution import attribution_lines
+    from brdflab.workflows import check
 
-    if args.spp < 1 or args.runs < 1:
-        raise BrdflabError("--spp and --runs must be at least 1")
-    if args.block < 2:
-        raise BrdflabError("--block must be at least 2 pixels")
-    if not 0 < args.alpha < 1:
-        raise BrdflabError(f"--alpha must be in (0, 1), got {args.alpha}")
-    if args.ref_var and not args.ref:
-        raise BrdflabError("--ref-var needs --ref")
-    load_plugins(args)
-    scene = load_scene(args.scene)
-    integrator = args.integrator or scene.integrator_type
-    make_integrator(integrator)
-    images = [read_exr(p) for p in args.renders]
-    ref = read_exr(args.ref) if args.ref else None
-    ref_var = read_exr(args.ref_var) if args.ref_var else None
-    check_inputs(images, ref_var, args.user_spp, [clean(p, 80) for p in args.renders], args.block, ref)
     out = args.output or args.renders[0].parent / f"check-{args.renders[0].stem}"
-    inputs = [*args.renders, args.scene, *(p for p in (args.ref, args.ref_var) if p), *scene.inputs]
-    prepare_folder(out, list(CHECK_FILES), inputs, args.force)  # before the work, not after it
-    cam = scene.camera
-    for p, img in zip(args.renders, images, strict=True):
-        if img.shape[:2] != (cam.height, cam.width):
-            raise BrdflabError(f"{p}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
-                               f"{cam.width}×{cam.height}")
-    for p, img in ((args.ref, ref), (args.ref_var, ref_var)):
-        if img is not None and img.shape[:2] != (cam.height, cam.width):
-            raise BrdflabError(f"{p}: image is {img.shape[1]}×{img.shape[0]} pixels, the scene renders "
-                               f"{cam.width}×{cam.height}")
-    user_spp = args.user_spp or _spp_attribute(args.renders[0]) or scene.spp
     say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr))
-    if ref is None:
-        say(f"brdflab estimate: {args.runs} runs × {args.spp} spp of {integrator} at {cam.width}×{cam.height}")
     with cluster_from_args(args, quiet=args.quiet) as cluster:
-        # On a cluster each independent run is one job, rendered by one single-threaded worker (the scene is
-        # loaded there from its path: a shared file system); the runs' seeds make the result placement-free.
-        res = run_check(images, args.scene, integrator, args.spp, args.runs, args.seed, ref, ref_var, args.block,
-                        args.alpha, 1 if cluster else args.workers, progress=say, user_spp=user_spp,
-                        map_fn=map if cluster is None else cluster.imap, levels=args.levels)
-    from brdflab.stats.attribution import attribute_check, attribution_lines
-
-    att = attribute_check(res, images, args.scene, integrator, args.seed, args.where_spp, args.workers, say)
-    page = write_check(out, args.renders, images, res, args.scene, attribution=att)
-    record_outputs(out, list(CHECK_FILES))
+        res = check(args.renders, args.scene, integrator=args.integrator, spp=args.spp, runs=args.runs,
+                    seed=args.seed, ref=args.ref, ref_var=args.ref_var, user_spp=args.user_spp, block=args.block,
+                    levels=args.levels, alpha=args.alpha, workers=args.workers, output=out, force=args.force,
+                    plugins=args.plugin, progress=say, where_spp=args.where_spp, cluster=cluster)
     print(res.verdict())
-    for line in [] if att is None or args.quiet else attribution_lines(att):
+    for line in [] if res.attribution is None or args.quiet else attribution_lines(res.attribution):
         print(line)
-    say(f"cost: {res.seconds:.1f} s; wrote {page} and {out / 'check.json'}")
+    say(f"cost: {res.seconds:.1f} s; wrote {out / 'check.html'} and {out / 'check.json'}")
     return 0 if res.consistent else 1
-
-
-def _spp_attribute(path: Path) -> int | None:
-    """The ``brdflab_spp`` header attribute of an EXR written by brdflab, if any."""
-    from brdflab.imageio import read_exr_header
-
-    try:
-        return int(read_exr_header(path).get("brdflab_spp", 0)) or None
-    except (ValueError, TypeError):
-        return None

@@ -140,6 +140,8 @@ class CheckResult:
     """brdflab's individual runs, set by :func:`run_check`."""
     scales: list[int] = field(default_factory=list)
     """Block sizes tested (pixels), one Holm family over all of them."""
+    attribution: dict | None = field(default=None, repr=False)
+    """Where and what, for a biased render (:mod:`brdflab.stats.attribution`; set by :func:`brdflab.check`)."""
 
     def verdict(self) -> str:
         """One line: consistent/biased, p-value, mean bias with its 99 % interval, block counts."""
@@ -157,7 +159,7 @@ class CheckResult:
 
     def to_dict(self) -> dict:
         """Plain-dict form (maps as nested lists)."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("estimate", "runs")}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("estimate", "runs", "attribution")}
         d["signed_map"] = self.signed_map.astype(int).tolist()
         d["z_map"] = np.round(self.z_map, 3).tolist()
         d["bias_ci"] = list(self.bias_ci)
