@@ -410,7 +410,16 @@ def property_list(name: str, params: dict[str, Any] | None, owner: str | None = 
             value = convert_value(kind, value, what)
         elif kind == "color":
             value = np.broadcast_to(np.asarray(value, float), (3,)).copy()
-        elif kind in ("float", "integer") and not isinstance(value, bool):
+        elif kind == "boolean":
+            if not isinstance(value, bool | np.bool_):  # bool(2), bool(0.5): no silent truthiness
+                raise BrdflabError(f"{what}: expected true or false, got {_short(repr(value))}")
+            value = bool(value)
+        elif kind in ("float", "integer"):
+            if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
+                raise BrdflabError(f"{what}: expected {'a number' if kind == 'float' else 'an integer'}, "
+                                   f"got {_short(repr(value))}")
+            if kind == "integer" and not (np.isfinite(value) and float(value) == int(value)):
+                raise BrdflabError(f"{what}: expected an integer, got {_short(repr(value))}")  # no truncation
             value = float(value) if kind == "float" else int(value)
         if kind in ("float", "color") and not np.all(np.isfinite(value)):
             raise BrdflabError(f"{what}: expected a finite value, got {value}")
