@@ -7,7 +7,10 @@ Run from the repository root (CPU-heavy: a bounded, reproducible sample of the m
     python benchmarks/mutation.py --list               # only list the mutants
     python benchmarks/mutation.py --only brdflab/bsdf/fresnel.py:41:3   # one mutant, by its id
 
-Scope: ``brdflab/bsdf``, ``brdflab/emitter``, ``brdflab/integrator`` and ``brdflab/math/warps.py``.
+Scope: ``brdflab/bsdf``, ``brdflab/emitter``, ``brdflab/integrator`` and ``brdflab/math/warps.py``; with
+``--scope PATH`` (repeatable) another package or file, judged by its own selection (:data:`SELECTIONS`:
+``brdflab/stats``, ``brdflab/validate``, ``brdflab/plugins.py``, ``brdflab/scene``, ``brdflab/film.py``) or by
+``--tests``.
 
 Why a small AST mutator of our own instead of ``mutmut``/``cosmic-ray``: mutmut 3 mutates only inside
 functions (module-level constants such as ``P_SPECULAR_MAX`` or ``INV_PI`` are left alone), runs through
@@ -71,6 +74,22 @@ TESTS = [
     "tests/test_validate.py::test_furnace",
 ]
 DESELECT: list[str] = []
+#: Further scopes (``--scope``), each with its own fast test selection (used instead of :data:`TESTS`).
+SELECTIONS: dict[str, list[str]] = {
+    "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_check.py", "tests/test_report_runs.py"],
+    "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_open_checks.py", "tests/test_validate.py",
+                         "tests/test_validate_light.py", "tests/test_chi2_pages.py",
+                         "tests/test_light_paths.py::test_estimators_agree",
+                         "tests/test_light_paths.py::test_agreement_rejects_a_forgotten_selection_probability"],
+    "brdflab/plugins.py": ["tests/test_param_conversion.py", "tests/test_plugins.py", "tests/test_open_checks.py"],
+    "brdflab/scene": ["tests/test_parser.py", "tests/test_render_paths_2.py", "tests/test_obj_fast.py",
+                      "tests/test_param_conversion.py", "tests/test_bad_inputs.py", "tests/test_golden.py",
+                      "tests/test_render.py", "tests/test_light_paths.py::test_estimators_match_closed_forms",
+                      "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
+                      "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
+    "brdflab/film.py": ["tests/test_camera_film.py", "tests/test_render_paths_2.py", "tests/test_render.py",
+                        "tests/test_golden.py::test_scene_file_defaults", "tests/test_bad_inputs.py"],
+}
 
 
 #: Reviewed survivors that cannot change any result: mutant id → reason.
@@ -312,7 +331,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--summarize", type=Path, help="recompute the summary of a results .jsonl (current EQUIVALENT)")
     ap.add_argument("-o", "--output", type=Path, default=ROOT / "benchmarks" / "mutation_results.json")
+    ap.add_argument("--scope", action="append", default=[],
+                    help=f"mutate these paths instead (repeatable; with its test selection: {', '.join(SELECTIONS)})")
+    ap.add_argument("--tests", action="append", default=[], help="test selection instead of the scope's (repeatable)")
     args = ap.parse_args(argv)
+    if args.scope:
+        SCOPE[:] = args.scope
+        TESTS[:] = [t for s in args.scope for t in SELECTIONS.get(s, [])] or TESTS
+    if args.tests:
+        TESTS[:] = args.tests
 
     if args.summarize:
         rows = [json.loads(line) for line in args.summarize.read_text().splitlines() if line.strip()]
