@@ -96,6 +96,14 @@ def test_welch_block_t_p_holm_and_mean_z_by_hand():
     # Verdict p: Bonferroni of the two halves, min(1, 2 · min(p_mean, min adjusted block p)).
     assert r.p_value == pytest.approx(2 * min(r.bias_p, M_TESTS * 2e-4), rel=1e-6)
     assert not r.consistent
+    # Smallest detectable biases at 80 % power: the mean test at α/4 per side (its α/2, two-sided), a block
+    # at the first Holm level α/(2m) two-sided, with the block's t quantile (every block alike here).
+    z80 = stats.norm.ppf(0.8)
+    sd_mean = math.sqrt((A * A + B_ * B_) / N_IMAGE)
+    assert r.min_detectable_bias == pytest.approx((stats.norm.isf(ALPHA / 4) + z80) * sd_mean / 0.75, rel=1e-9)
+    t_crit = stats.t.isf(ALPHA / 2 / M_TESTS / 2, WELCH_DF)
+    assert r.min_detectable_block_bias == pytest.approx((t_crit + z80) * math.sqrt(WELCH_VAR) / 0.75, rel=1e-6)
+    assert "detectable: mean bias" in r.verdict() and r.verdict().startswith("BIASED: p = ")
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
