@@ -76,7 +76,8 @@ TESTS = [
 DESELECT: list[str] = []
 #: Further scopes (``--scope``), each with its own fast test selection (used instead of :data:`TESTS`).
 SELECTIONS: dict[str, list[str]] = {
-    "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_check.py", "tests/test_report_runs.py"],
+    "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_intervals_by_hand.py", "tests/test_check.py",
+                      "tests/test_report_runs.py"],
     "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_open_checks.py", "tests/test_validate.py",
                          "tests/test_validate_light.py", "tests/test_chi2_pages.py",
                          "tests/test_light_paths.py::test_estimators_agree",
@@ -87,7 +88,8 @@ SELECTIONS: dict[str, list[str]] = {
                       "tests/test_render.py", "tests/test_light_paths.py::test_estimators_match_closed_forms",
                       "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
                       "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
-    "brdflab/film.py": ["tests/test_camera_film.py", "tests/test_render_paths_2.py", "tests/test_render.py",
+    "brdflab/film.py": ["tests/test_film_merge.py", "tests/test_camera_film.py", "tests/test_render_paths_2.py",
+                        "tests/test_render.py",
                         "tests/test_golden.py::test_scene_file_defaults", "tests/test_bad_inputs.py"],
 }
 

@@ -1,0 +1,69 @@
+"""Confidence intervals and corrections of :mod:`brdflab.stats.intervals`, computed here by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from brdflab.stats import intervals as iv
+
+VALUES = [1.0, 2.0, 4.0, 5.0]  # mean 3, sample variance (4 + 1 + 1 + 4)/3 = 10/3
+
+
+def test_t_interval_by_hand():
+    m, lo, hi = iv.t_interval(VALUES)  # default level 0.95
+    half = stats.t.ppf(0.975, 3) * math.sqrt(10 / 3) / 2
+    assert (m, lo, hi) == pytest.approx((3.0, 3.0 - half, 3.0 + half), rel=1e-12)
+    m, lo, hi = iv.t_interval(VALUES, 0.99)
+    half = stats.t.ppf(0.995, 3) * math.sqrt(10 / 3) / 2
+    assert (lo, hi) == pytest.approx((3.0 - half, 3.0 + half), rel=1e-12)
+    m, lo, hi = iv.t_interval([2.5])
+    assert m == 2.5 and math.isnan(lo) and math.isnan(hi)
+
+
+def test_positive_interval_by_hand():
+    m, lo, hi = iv.positive_interval(VALUES)  # default level 0.95, log scale: half = t·s/(√K·X̄)
+    half = stats.t.ppf(0.975, 3) * math.sqrt(10 / 3) / 2 / 3
+    assert (m, lo, hi) == pytest.approx((3.0, 3.0 * math.exp(-half), 3.0 * math.exp(half)), rel=1e-12)
+    assert lo * hi == pytest.approx(9.0)  # symmetric on log scale
+    assert math.isnan(iv.positive_interval([1.0])[1]) and math.isnan(iv.positive_interval([-1.0, 0.5])[2])
+
+
+def test_welch_df_by_hand():
+    # v = (2, 1), df = (4, 9): (3)² / (4/4 + 1/9) = 9 / (10/9) = 8.1
+    assert float(iv.welch_df([2.0, 1.0], [4.0, 9.0])) == pytest.approx(8.1, rel=1e-12)
+    assert float(iv.welch_df([2.0, 1.0], [np.inf, 9.0])) == pytest.approx(81.0, rel=1e-12)
+    assert float(iv.welch_df([0.0, 0.0], [3.0, 3.0])) == math.inf
+
+
+def test_mean_interval_by_hand():
+    lo, hi = iv.mean_interval(1.0, 4.0, 5.0, 0.9)
+    q = stats.t.ppf(0.95, 5)
+    assert (lo, hi) == pytest.approx((1 - 2 * q, 1 + 2 * q), rel=1e-12)
+    lo, hi = iv.mean_interval(1.0, 4.0, math.inf, 0.9)
+    assert (lo, hi) == pytest.approx((1 - 2 * stats.norm.ppf(0.95), 1 + 2 * stats.norm.ppf(0.95)), rel=1e-12)
+
+
+def test_log_ratio_interval_by_hand():
+    a, b = [2.0, 4.0, 6.0], [1.0, 3.0]
+    ratio, lo, hi = iv.log_ratio_interval(a, b)  # default level 0.95
+    va = 4.0 / 3 / 16  # var(a)/K/mean² = 4/3/4²
+    vb = 2.0 / 2 / 4  # 2/2/2²
+    df = (va + vb) ** 2 / (va**2 / 2 + vb**2 / 1)
+    half = stats.t.ppf(0.975, df) * math.sqrt(va + vb)
+    assert ratio == pytest.approx(2.0)
+    assert (lo, hi) == pytest.approx((2 * math.exp(-half), 2 * math.exp(half)), rel=1e-12)
+    assert math.isnan(iv.log_ratio_interval([1.0], [2.0, 3.0])[1])
+
+
+def test_holm_by_hand():
+    p = np.array([0.04, 0.001, 0.03, 0.2, 0.011])
+    rej, adj = iv.holm(p, 0.05)
+    # sorted: 0.001·5, 0.011·4, 0.03·3, 0.04·2, 0.2·1 → running max
+    assert adj.tolist() == pytest.approx([0.09, 0.005, 0.09, 0.2, 0.044])
+    assert rej.tolist() == [False, True, False, False, True]
+    rej, adj = iv.holm(np.array([]), 0.05)
+    assert rej.size == 0 and adj.size == 0
