@@ -65,5 +65,7 @@ def test_holm_by_hand():
     # sorted: 0.001·5, 0.011·4, 0.03·3, 0.04·2, 0.2·1 → running max
     assert adj.tolist() == pytest.approx([0.09, 0.005, 0.09, 0.2, 0.044])
     assert rej.tolist() == [False, True, False, False, True]
+    rej, adj = iv.holm(np.array([[0.5, 0.6], [0.3, 0.9]]), 0.05)  # m·p > 1: capped at 1, shape kept
+    assert adj.tolist() == [[1.0, 1.0], [1.0, 1.0]] and not rej.any()
     rej, adj = iv.holm(np.array([]), 0.05)
     assert rej.size == 0 and adj.size == 0
