@@ -103,25 +103,28 @@ def _rotation() -> np.ndarray:
 
 
 def _sphere_obj(n_theta: int = 24, n_phi: int = 48) -> str:
-    """A unit uv sphere with exact vertex normals (vn = v), written with full precision."""
-    lines = []
+    """A unit uv sphere with exact vertex normals (vn = v), written with full precision; the vn lines come in
+    reverse order, so that a face's normal index differs from its position index."""
+    vs, vns = [], []
     for i in range(n_theta + 1):
         th = math.pi * i / n_theta
         for j in range(n_phi):
             ph = 2 * math.pi * j / n_phi
             p = (math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th))
-            lines.append("v {!r} {!r} {!r}".format(*p))
-            lines.append("vn {!r} {!r} {!r}".format(*p))
+            vs.append("v {!r} {!r} {!r}".format(*p))
+            vns.append("vn {!r} {!r} {!r}".format(*p))
+    total = len(vs)
     faces = []
     for i in range(n_theta):
         for j in range(n_phi):
             a, b = i * n_phi + j + 1, i * n_phi + (j + 1) % n_phi + 1
             c, d = a + n_phi, b + n_phi
+            na, nb, nc, nd = (total + 1 - k for k in (a, b, c, d))
             if i > 0:
-                faces.append(f"f {a}//{a} {c}//{c} {b}//{b}")
+                faces.append(f"f {a}//{na} {c}//{nc} {b}//{nb}")
             if i < n_theta - 1:
-                faces.append(f"f {b}//{b} {c}//{c} {d}//{d}")
-    return "\n".join(lines + faces) + "\n"
+                faces.append(f"f {b}//{nb} {c}//{nc} {d}//{nd}")
+    return "\n".join(vs + vns[::-1] + faces) + "\n"
 
 
 def _to_world_xml() -> str:

@@ -100,3 +100,30 @@ def test_camera_rays_span_near_to_far_in_depth():
     end_cam = ((o2 + t2[:, None] * d2) @ inv[:3, :3].T) + inv[:3, 3]
     np.testing.assert_allclose(o_cam[:, 2], near, rtol=1e-5)
     np.testing.assert_allclose(end_cam[:, 2], far, rtol=1e-5)
+
+
+def _to_world(tmp_path, ops: str) -> np.ndarray:
+    from brdflab.scene.xmlparser import parse_scene_file
+
+    p = write_scene(tmp_path, f'<mesh type="obj"><transform name="toWorld">{ops}</transform></mesh>')
+    return parse_scene_file(p).children[0].props.get_transform("toWorld").matrix
+
+
+def test_xml_transforms_by_hand(tmp_path):
+    # lookat: columns (l, u', d, o) with d = (1, 0, 1)/√2, l = up × d = (1, 0, −1)/√2, u' = d × l = (0, 1, 0).
+    m = _to_world(tmp_path, '<lookat origin="1,2,3" target="2,2,4" up="0,5,0"/>')
+    r = 1 / np.sqrt(2)
+    np.testing.assert_allclose(m, [[r, 0, r, 1], [0, 1, 0, 2], [-r, 0, r, 3], [0, 0, 0, 1]], atol=1e-12)
+    # rotate: the axis is used as given (Nori does not normalise it): 90° about (0, 0, 2) maps x to (0, 2, 0).
+    m = _to_world(tmp_path, '<rotate axis="0,0,2" angle="90"/>')
+    np.testing.assert_allclose(m[:3, :3] @ [1.0, 0, 0], [0, 2, 0], atol=1e-12)
+    m = _to_world(tmp_path, '<rotate axis="1,0,0" angle="30"/>')
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    np.testing.assert_allclose(m[:3, :3], [[1, 0, 0], [0, c, -s], [0, s, c]], atol=1e-12)
+    # matrix: row-major, all 16 values in place.
+    full = np.array([[2, 1, 0, 5], [0, 3, 1, 6], [1, 0, 4, 7], [0, 0, 0, 1]], dtype=float)
+    vals = " ".join(str(v) for v in full.ravel())
+    np.testing.assert_array_equal(_to_world(tmp_path, f'<matrix value="{vals}"/>'), full)
+    # Composition order (M ← Op·M): scale, then rotate, then translate.
+    m = _to_world(tmp_path, '<scale value="2,1,1"/><rotate axis="0,0,1" angle="90"/><translate value="0,0,5"/>')
+    np.testing.assert_allclose(m @ [1.0, 0, 0, 1], [0, 2, 5, 1], atol=1e-12)
