@@ -308,3 +308,18 @@ def test_power_against_a_planted_bias(kind, renders, low):
     hits = int(res[:, 2].sum())
     assert stats.binom.ppf(5e-4, n, _power(low * delta)) <= hits <= stats.binom.isf(5e-4, n, _power(delta)), hits
     assert np.all(res[res[:, 2] > 0, 1] > 0)  # every rejection in the right direction
+
+
+def test_non_finite_pixels_are_left_out_by_hand():
+    """Two adjacent pixels (one + and one − of the checkerboard) NaN in one user render: the block keeps
+    n − 2 pixels and its planted difference D; Var D_b = (a² + b²)/(n − 2); the image mean is D (n − 2)/(N − 2)
+    with variance (a² + b²)/(N − 2)."""
+    d = 0.05
+    user = _pair(BASE + _planted(d), A)
+    user[0][3, 20:22] = np.nan
+    r = check_images(user, Estimate.from_runs(_pair(BASE, B_)), levels=1)
+    assert r.nonfinite == 2
+    assert r.z_map[0, 1] == pytest.approx(d / math.sqrt((A * A + B_ * B_) / (N_BLOCK - 2)), rel=1e-9)
+    z_mean = d * (N_BLOCK - 2) / (N_IMAGE - 2) / math.sqrt((A * A + B_ * B_) / (N_IMAGE - 2))
+    assert r.bias_p == pytest.approx(2 * stats.norm.sf(z_mean), rel=1e-9)
+    assert r.bias == pytest.approx(d * (N_BLOCK - 2) / (N_IMAGE - 2) / 0.75, rel=1e-9)
