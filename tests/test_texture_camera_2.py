@@ -127,3 +127,24 @@ def test_xml_transforms_by_hand(tmp_path):
     # Composition order (M ← Op·M): scale, then rotate, then translate.
     m = _to_world(tmp_path, '<scale value="2,1,1"/><rotate axis="0,0,1" angle="90"/><translate value="0,0,5"/>')
     np.testing.assert_allclose(m @ [1.0, 0, 0, 1], [0, 2, 5, 1], atol=1e-12)
+
+
+def test_environment_rotate_when_applied():
+    """``apply_rotate``: a rotation about +Y by ``rotate`` degrees shifts u by rotate/360, i.e. the map seen at
+    φ + rotate without it (φ = atan2(ω_z, ω_x)); its samples carry their own eval and pdf."""
+    from brdflab.emitter.environment import EnvironmentEmitter
+
+    rng = np.random.default_rng(8)
+    img = (rng.random((8, 16, 3)) * 255).astype(np.float32)
+    plain = EnvironmentEmitter(img, np.ones(3))
+    turned = EnvironmentEmitter(img, np.ones(3), rotate=90.0, apply_rotate=True)
+    assert np.allclose(EnvironmentEmitter(img, np.ones(3), rotate=90.0).eval(np.eye(3)), plain.eval(np.eye(3)))
+    d = rng.normal(size=(200, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d_turned = np.stack([-d[:, 2], d[:, 1], d[:, 0]], axis=1)  # φ + 90°
+    np.testing.assert_allclose(turned.eval(d), plain.eval(d_turned), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(turned.pdf(d), plain.pdf(d_turned), rtol=1e-9, atol=1e-12)
+    s = turned.sample(np.zeros((500, 3)), rng.random((500, 3)))
+    ok = s.pdf > 0
+    np.testing.assert_allclose(s.pdf[ok], turned.pdf(s.wi[ok]), rtol=1e-6)
+    np.testing.assert_allclose(s.radiance[ok], turned.eval(s.wi[ok]), rtol=1e-6, atol=1e-9)
