@@ -89,7 +89,8 @@ SELECTIONS: dict[str, list[str]] = {
                       "tests/test_render.py", "tests/test_light_paths.py::test_estimators_match_closed_forms",
                       "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
                       "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
-    "brdflab/film.py": ["tests/test_film_merge.py", "tests/test_camera_film.py", "tests/test_render_paths_2.py",
+    "brdflab/film.py": ["tests/test_film_merge.py", "tests/test_camera_film.py", "tests/test_texture_camera_2.py",
+                        "tests/test_render_paths_2.py",
                         "tests/test_render.py",
                         "tests/test_golden.py::test_scene_file_defaults", "tests/test_bad_inputs.py"],
 }
