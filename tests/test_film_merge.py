@@ -127,8 +127,8 @@ class _PixelNoise:
         return base + rng.random((len(d), 1))
 
 
-@pytest.mark.parametrize("progressive", [False, True])
-def test_render_merge_mean_and_variance(tmp_path, progressive):
+@pytest.mark.parametrize(("progressive", "workers"), [(False, 1), (True, 1), (True, 2)])
+def test_render_merge_mean_and_variance(tmp_path, progressive, workers):
     from brdflab.render import render
     from brdflab.scene.loader import load_scene
 
@@ -138,7 +138,7 @@ def test_render_merge_mean_and_variance(tmp_path, progressive):
     scene.integrator = _PixelNoise(scene.camera)
     spp = 48
     passes = []
-    img, st = render(scene, spp=spp, seed=5, workers=1,
+    img, st = render(scene, spp=spp, seed=5, workers=workers,  # 2: forked workers, tiles via shared slots
                      on_pass=(lambda s, t, film: passes.append(s)) if progressive else None)
     from brdflab.render import tiles_for
 
