@@ -323,3 +323,30 @@ def test_non_finite_pixels_are_left_out_by_hand():
     z_mean = d * (N_BLOCK - 2) / (N_IMAGE - 2) / math.sqrt((A * A + B_ * B_) / (N_IMAGE - 2))
     assert r.bias_p == pytest.approx(2 * stats.norm.sf(z_mean), rel=1e-9)
     assert r.bias == pytest.approx(d * (N_BLOCK - 2) / (N_IMAGE - 2) / 0.75, rel=1e-9)
+
+
+def test_scan_window_by_hand():
+    """64 × 64, one render (model): a +D patch on exactly 2 × 2 base blocks at (16, 16). Each base block has
+    t = D/√((K·run/user + 1) b²/256) ≈ 2.1 (not significant among the 75 tests: 16 blocks + 9 windows of 32,
+    × RGB); the 32-pixel window of the scan has n = 1024, t twice that (df = n − 2, the residual's), and is
+    the one flagged, with Holm's 75 · p."""
+    s, k, user_spp, run_spp, b = 64, 2, 64, 16, B_
+    yy, xx = np.mgrid[0:s, 0:s]
+    checker = np.where((yy + xx) % 2 == 0, 1.0, -1.0)[..., None] * np.ones(3)
+    base = np.full((s, s, 3), 0.75)
+    a = b * math.sqrt(k / (k - 1) * run_spp / user_spp)
+    scale = k * run_spp / user_spp
+    t_window = _t_for_p(2.9e-5, 1022)
+    d = t_window * math.sqrt((scale + 1) * b * b / 1024)
+    x = base + a * checker
+    x[16:48, 16:48] += d
+    r = check_images([x], Estimate.from_runs([base + b * checker, base - b * checker], run_spp=run_spp),
+                     user_spp=user_spp)
+    assert r.scales == [16, 32] and r.method.startswith("model")
+    np.testing.assert_allclose(r.z_map[1:3, 1:3], t_window / 2, rtol=1e-9)
+    assert len(r.flagged) == 1
+    f = r.flagged[0]
+    assert (f["x"], f["y"], f["w"], f["h"], f["sign"]) == (16, 16, 32, 32, "too bright")
+    assert f["t"] == pytest.approx(t_window, rel=1e-9)
+    assert f["p_adjusted"] == pytest.approx(75 * 2.9e-5, rel=1e-6)
+    assert r.bright_blocks == 4 and r.dark_blocks == 0  # the window marks the base blocks it covers
