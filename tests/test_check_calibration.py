@@ -325,25 +325,35 @@ def test_non_finite_pixels_are_left_out_by_hand():
     assert r.bias == pytest.approx(d * (N_BLOCK - 2) / (N_IMAGE - 2) / 0.75, rel=1e-9)
 
 
-def test_scan_window_by_hand():
+@pytest.mark.parametrize("noisier", [1.0, 2.0])
+def test_scan_window_by_hand(noisier):
     """64 × 64, one render (model): a +D patch on exactly 2 × 2 base blocks at (16, 16). Each base block has
     t = D/√((K·run/user + 1) b²/256) ≈ 2.1 (not significant among the 75 tests: 16 blocks + 9 windows of 32,
     × RGB); the 32-pixel window of the scan has n = 1024, t twice that (df = n − 2, the residual's), and is
-    the one flagged, with Holm's 75 · p."""
+    the one flagged, with Holm's 75 · p. ``noisier`` = 2: the user's render has twice the predicted spread,
+    so η = (a²/254)/((K·run/user + 1) b²/256) > 1 and the residual a²/(n − 2) is the variance of every
+    block and window."""
     s, k, user_spp, run_spp, b = 64, 2, 64, 16, B_
     yy, xx = np.mgrid[0:s, 0:s]
     checker = np.where((yy + xx) % 2 == 0, 1.0, -1.0)[..., None] * np.ones(3)
     base = np.full((s, s, 3), 0.75)
-    a = b * math.sqrt(k / (k - 1) * run_spp / user_spp)
+    a = noisier * b * math.sqrt(k / (k - 1) * run_spp / user_spp)
     scale = k * run_spp / user_spp
     t_window = _t_for_p(2.9e-5, 1022)
-    d = t_window * math.sqrt((scale + 1) * b * b / 1024)
+    model = (scale + 1) * b * b
+    d = t_window * math.sqrt((model if noisier == 1 else a * a * 1024 / 1022) / 1024)
     x = base + a * checker
     x[16:48, 16:48] += d
     r = check_images([x], Estimate.from_runs([base + b * checker, base - b * checker], run_spp=run_spp),
                      user_spp=user_spp)
     assert r.scales == [16, 32] and r.method.startswith("model")
-    np.testing.assert_allclose(r.z_map[1:3, 1:3], t_window / 2, rtol=1e-9)
+    eta = float(re.search(r"η = ([0-9.]+)", r.method).group(1))
+    if noisier == 1:
+        np.testing.assert_allclose(r.z_map[1:3, 1:3], t_window / 2, rtol=1e-9)
+        assert eta == 1.0
+    else:
+        np.testing.assert_allclose(r.z_map[1:3, 1:3], d / math.sqrt(a * a / 254), rtol=1e-9)
+        assert eta == pytest.approx((a * a / 254) / (model / 256), abs=0.006)
     assert len(r.flagged) == 1
     f = r.flagged[0]
     assert (f["x"], f["y"], f["w"], f["h"], f["sign"]) == (16, 16, 32, 32, "too bright")
