@@ -69,3 +69,30 @@ def test_holm_by_hand():
     assert adj.tolist() == [[1.0, 1.0], [1.0, 1.0]] and not rej.any()
     rej, adj = iv.holm(np.array([]), 0.05)
     assert rej.size == 0 and adj.size == 0
+
+
+def test_block_statistics_by_hand():
+    from brdflab.stats import blocks as B
+
+    # eq. (1): F = Σ_d ρ(d)(1 − |d_x|/s)(1 − |d_y|/s) over the lag window, F∞ = Σ_d ρ(d), at least 1.
+    rho = {(0, 1): np.array([0.5]), (0, -1): np.array([0.5]), (1, 1): np.array([0.2]), (-1, -1): np.array([0.2])}
+    assert B.correlation_factor(rho, 4, 1)[0] == pytest.approx(1 + 2 * 0.5 * 0.75 + 2 * 0.2 * 0.75 * 0.75)
+    assert B.correlation_factor(rho, None, 1)[0] == pytest.approx(1 + 2 * 0.5 + 2 * 0.2)
+    neg = {(0, 1): np.array([-0.4]), (0, -1): np.array([-0.4])}
+    assert B.correlation_factor(neg, 4, 1)[0] == 1.0  # conservative floor
+    # Centred on n-pixel block means: F = S_c / (1 + (S_c − W)/n), W = Σ weights.
+    s_c, w = 1 + 2 * 0.5 * 0.75, 1 + 2 * 0.75
+    half = {(0, 1): np.array([0.5]), (0, -1): np.array([0.5])}
+    assert B.correlation_factor(half, 4, 1, centred_in=16)[0] == pytest.approx(s_c / (1 + (s_c - w) / 16))
+    # eq. (2): κ = n Σe⁴ / (Σe²)², at least 3; df = 2 n_eff / (κ − 1).
+    e = np.array([4.0, 0.0, 0.0, 0.0]).reshape(1, 2, 2, 1)  # κ = 4 · 256 / 16² = 4
+    valid = np.ones((2, 2), bool)
+    assert B.kurtosis_df(e, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(2 * 6 / 3)
+    e = np.array([1.0, -1.0, 3.0, -3.0]).reshape(1, 2, 2, 1)  # κ = 4 · 164 / 400 < 3 → 3
+    assert B.kurtosis_df(e, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(6.0)
+    # Blocks of a 5 × 7 image with side 4: 2 × 2 blocks, edge blocks partial, expand back to pixels.
+    assert B.grid((5, 7), 4) == (2, 2)
+    a = np.arange(35, dtype=float).reshape(5, 7, 1)
+    s = B.block_sum(a, 4)
+    assert s[:, :, 0].tolist() == [[a[:4, :4].sum(), a[:4, 4:].sum()], [a[4:, :4].sum(), a[4:, 4:].sum()]]
+    assert B.expand(s, 4, (5, 7))[4, 6, 0] == s[1, 1, 0] and B.expand(s, 4, (5, 7)).shape == (5, 7, 1)
