@@ -82,7 +82,8 @@ SELECTIONS: dict[str, list[str]] = {
                          "tests/test_validate_light.py", "tests/test_chi2_pages.py",
                          "tests/test_light_paths.py::test_estimators_agree",
                          "tests/test_light_paths.py::test_agreement_rejects_a_forgotten_selection_probability"],
-    "brdflab/plugins.py": ["tests/test_param_conversion.py", "tests/test_plugins.py", "tests/test_open_checks.py"],
+    "brdflab/plugins.py": ["tests/test_param_conversion.py", "tests/test_plugins_registry_2.py",
+                           "tests/test_plugins.py", "tests/test_open_checks.py"],
     "brdflab/scene": ["tests/test_properties_bounds.py", "tests/test_parser.py", "tests/test_render_paths_2.py",
                       "tests/test_texture_camera_2.py", "tests/test_obj_fast.py",
                       "tests/test_param_conversion.py", "tests/test_bad_inputs.py", "tests/test_golden.py",
@@ -98,6 +99,11 @@ SELECTIONS: dict[str, list[str]] = {
 
 #: Reviewed survivors that cannot change any result: mutant id → reason.
 EQUIVALENT: dict[str, str] = {
+    "brdflab/plugins.py:286:16:Or->And": "the list of valid types is never empty (BUILTIN has entries for every "
+    "tag), so the 'none' fallback is unreachable",
+    "brdflab/plugins.py:291:57:const 1->2": "only the first close match (hint[0]) is shown",
+    "brdflab/stats/check.py:359:76:const 1.0->1.1": "placeholder divisor where syy = 0, whose quotient the outer "
+    "where replaces by 0",
     "brdflab/bsdf/base.py:102:55:const 1.0->1.1": "the placeholder divisor of the entries the outer where sets "
     "to 0 anyway",
     "brdflab/bsdf/diffuse.py:52:53:const 2->3": "the cosine warp reads only the first two columns of u",
