@@ -49,3 +49,23 @@ def test_family_wise_p_over_pairs_and_blocks(monkeypatch):
     assert r.p_value == pytest.approx(1 - (1 - np.nanmin(ps)) ** m, rel=1e-9)
     assert r.passed is (r.p_value > 0.01)
     assert r.means == pytest.approx({k: float(v.mean()) for k, v in data.items()})
+
+
+def test_block_means_are_rec709_luminance(tmp_path):
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import write_scene
+
+    class Colour:
+        needs_emitters = False
+
+        def li(self, scene, o, d, tmax, rng):
+            return np.tile([0.2, 0.5, 0.8], (len(d), 1)) * (1.0 + (d[:, :1] > 0))  # camera left half twice as bright
+
+    body = ('<integrator type="normals"/><camera type="perspective"><integer name="width" value="8"/>'
+            '<integer name="height" value="4"/><rfilter type="box"/></camera>')
+    s = load_scene(write_scene(tmp_path, body))
+    s.integrator = Colour()
+    m = ag.block_means(s, spp=2, reps=2, block=4, seed=3)
+    y = 0.2 * 0.212671 + 0.5 * 0.715160 + 0.8 * 0.072169
+    assert m.shape == (2, 2)
+    np.testing.assert_allclose(m, [[2 * y, y], [2 * y, y]], rtol=1e-6)  # camera +x is the image's left
