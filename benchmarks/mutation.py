@@ -78,7 +78,8 @@ DESELECT: list[str] = []
 SELECTIONS: dict[str, list[str]] = {
     "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_intervals_by_hand.py", "tests/test_check.py",
                       "tests/test_report_runs.py"],
-    "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_open_checks.py", "tests/test_validate.py",
+    "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_agreement_by_hand.py",
+                         "tests/test_external_reader_2.py", "tests/test_open_checks.py", "tests/test_validate.py",
                          "tests/test_validate_light.py", "tests/test_chi2_pages.py",
                          "tests/test_light_paths.py::test_estimators_agree",
                          "tests/test_light_paths.py::test_agreement_rejects_a_forgotten_selection_probability"],
