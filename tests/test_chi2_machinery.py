@@ -174,3 +174,44 @@ def test_albedo_point_error_bar_and_bounds_by_hand():
     assert not AlbedoPoint("x", None, 0.0, 0.5, 0.5, 1e-3, fault="broken").passed
     msg = AlbedoPoint("x", None, 0.0, 0.95, 0.9, 3e-3, 4e-3).summary()
     assert "DISAGREE by 10σ" in msg
+
+
+# -- binning and quadrature on exact cases -----------------------------------------------------------------
+def test_sphere_bin_integrals_by_hand():
+    """∫ dω and ∫ cos θ dω over wide (θ, φ) bins: (cos θ_a − cos θ_b)(φ_b − φ_a) and
+    ½(sin² θ_b − sin² θ_a)(φ_b − φ_a) (cells split, graded and refined inside each bin)."""
+    te = np.array([0.0, 0.4, np.pi / 2, 2.5, np.pi])
+    pe = np.array([[0.0, 1.0, 2 * np.pi], [0.0, 4.0, 2 * np.pi], [0.0, 0.5, 2 * np.pi], [0.0, 3.0, 2 * np.pi]])
+    one, err = c2.integrate_sphere_bins(lambda w: np.ones(len(w)), te, pe)
+    hand = (np.cos(te[:-1]) - np.cos(te[1:]))[:, None] * np.diff(pe, axis=1)
+    np.testing.assert_allclose(one, hand, rtol=1e-9)
+    assert one.shape == (4, 2) and np.all(err >= 0) and one.sum() == pytest.approx(4 * np.pi)
+    cos, _ = c2.integrate_sphere_bins(lambda w: np.maximum(w[:, 2], 0.0), te, pe)
+    hand = 0.5 * (np.sin(np.minimum(te[1:], np.pi / 2)) ** 2 - np.sin(np.minimum(te[:-1], np.pi / 2)) ** 2)
+    np.testing.assert_allclose(cos, hand[:, None] * np.diff(pe, axis=1), rtol=1e-7, atol=1e-12)
+    assert cos.sum() == pytest.approx(np.pi, rel=1e-7)
+    # About another axis (not normalised): the same bins measured from +x.
+    lobe, _ = c2.integrate_sphere_bins(lambda w: np.maximum(w[:, 0], 0.0), te, pe, axis=np.array([2.0, 0, 0]))
+    np.testing.assert_allclose(lobe, hand[:, None] * np.diff(pe, axis=1), rtol=1e-7, atol=1e-12)
+
+
+def test_angles_bins_and_counts_by_hand():
+    w = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    th, ph = c2.to_angles(w, np.array([0.0, 0.0, 1.0]))
+    np.testing.assert_allclose(th, [0, np.pi / 2, np.pi / 2, np.pi / 2, np.pi], atol=1e-12)
+    np.testing.assert_allclose(ph[1:4], [0, np.pi / 2, 3 * np.pi / 2], atol=1e-12)
+    # About +x given as a non-unit vector: θ′ is the angle to +x.
+    th, _ = c2.to_angles(w, np.array([3.0, 0.0, 0.0]))
+    np.testing.assert_allclose(th, [np.pi / 2, 0.0, np.pi / 2, np.pi / 2, np.pi / 2], atol=1e-12)
+    back = c2.from_angles(np.array([0.3, 2.0]), np.array([1.0, 5.0]), np.array([0.0, 3.0, 0.0]))
+    np.testing.assert_allclose(c2.to_angles(back, np.array([0.0, 3.0, 0.0]))[0], [0.3, 2.0], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(back, axis=1), 1.0)
+    # Rectangles of 2 strips × 3 φ bins, flattened strip by strip.
+    te = np.array([0.0, 1.0, np.pi])
+    pe = np.array([[0.0, 1.0, 2.0, 2 * np.pi], [0.0, 3.0, 4.0, 2 * np.pi]])
+    ta, tb, pa, pb = c2.bin_rects(te, pe)
+    assert ta.tolist() == [0, 0, 0, 1, 1, 1] and tb.tolist() == [1, 1, 1, np.pi, np.pi, np.pi]
+    assert pa.tolist() == [0, 1, 2, 0, 3, 4] and pb.tolist() == [1, 2, 2 * np.pi, 3, 4, 2 * np.pi]
+    counts = c2.bin_counts(np.array([0.5, 0.5, 0.5, 2.0, 2.0, 2.0, 2.0]), np.array([0.5, 1.5, 6.0, 0.1, 3.5, 3.9, 5.0]),
+                           te, pe)
+    assert counts.tolist() == [[1, 1, 1], [1, 2, 1]]
