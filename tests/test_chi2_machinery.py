@@ -215,3 +215,13 @@ def test_angles_bins_and_counts_by_hand():
     counts = c2.bin_counts(np.array([0.5, 0.5, 0.5, 2.0, 2.0, 2.0, 2.0]), np.array([0.5, 1.5, 6.0, 0.1, 3.5, 3.9, 5.0]),
                            te, pe)
     assert counts.tolist() == [[1, 1, 1], [1, 2, 1]]
+
+
+@pytest.mark.parametrize("geometric", [False, True])
+def test_adaptive_grid_integral_by_hand(geometric):
+    """∫∫ x² y dx dy over every cell of a grid: (x_b³ − x_a³)/3 · (y_b² − y_a²)/2 (the point-warp test's
+    expected counts), also with the cells graded geometrically away from x = 0."""
+    xe, ye = np.array([0.0, 0.1, 0.5, 1.0, 3.0]), np.array([-1.0, 0.0, 2.0])
+    got = c2.adaptive_integrate(lambda x, y: x * x * y, xe, ye, geometric_x=geometric)
+    hand = np.diff(xe**3)[:, None] / 3 * np.diff(ye**2)[None, :] / 2
+    np.testing.assert_allclose(got, hand, rtol=1e-10, atol=1e-14)
