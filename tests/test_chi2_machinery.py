@@ -225,3 +225,47 @@ def test_adaptive_grid_integral_by_hand(geometric):
     got = c2.adaptive_integrate(lambda x, y: x * x * y, xe, ye, geometric_x=geometric)
     hand = np.diff(xe**3)[:, None] / 3 * np.diff(ye**2)[None, :] / 2
     np.testing.assert_allclose(got, hand, rtol=1e-10, atol=1e-14)
+
+
+def test_albedo_curve_of_a_lambertian():
+    """ρ(θ_i) of a Lambertian of albedo 0.6 is 0.6 at every angle, by quadrature and Monte Carlo (exactly:
+    cosine sampling gives every sample the weight 0.6)."""
+    from brdflab.bsdf.diffuse import Diffuse
+    from brdflab.validate.furnace import albedo_curve
+
+    pts = albedo_curve("diffuse", lambda a: Diffuse(np.array([0.6, 0.6, 0.6])), None, [0.0, 60.0], n=2000)
+    assert [p.theta for p in pts] == [0.0, 60.0] and all(p.passed for p in pts)
+    for p in pts:
+        assert p.quadrature == pytest.approx(0.6, rel=1e-6) and p.monte_carlo == pytest.approx(0.6, rel=1e-12)
+        assert p.mc_stderr == pytest.approx(0.0, abs=1e-12) and p.params == {} and p.alpha is None
+
+
+def test_failed_samples_may_return_any_direction():
+    """A sample with pdf 0 (failed) may return ω_o = 0; only directions of valid samples must be unit."""
+    from brdflab.validate.guard import CheckedBSDF, PluginFault
+
+    class Half(bl.BSDF):
+        def eval(self, wi, wo, uv=None):
+            return np.zeros((len(wi), 3))
+
+        def pdf(self, wi, wo, uv=None):
+            return np.full(len(wi), 1 / (2 * np.pi))
+
+        def sample(self, wi, u, uv=None):
+            wo = bl.warps.square_to_uniform_hemisphere(u[:, :2])
+            fail = u[:, 2] < 0.5
+            wo[fail] = 0.0
+            return bl.BSDFSample(wo, np.zeros((len(u), 3)), np.where(fail, 0.0, 1 / (2 * np.pi)))
+
+    b = CheckedBSDF(Half(), "half", {})
+    u = np.random.default_rng(0).random((100, 3))
+    s = b.sample(np.tile([0.0, 0.0, 1.0], (100, 1)), u)
+    assert (s.pdf == 0).sum() == (u[:, 2] < 0.5).sum()
+
+    class Short(Half):
+        def sample(self, wi, u, uv=None):
+            r = super().sample(wi, u, uv)
+            return bl.BSDFSample(r.wo * 0.5, r.weight, r.pdf)
+
+    with pytest.raises(PluginFault, match="unit|norm|length"):
+        CheckedBSDF(Short(), "short", {}).sample(np.tile([0.0, 0.0, 1.0], (100, 1)), u)
