@@ -105,6 +105,25 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/plugins.py:291:57:const 1->2": "only the first close match (hint[0]) is shown",
     "brdflab/stats/check.py:359:76:const 1.0->1.1": "placeholder divisor where syy = 0, whose quotient the outer "
     "where replaces by 0",
+    # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
+    # runs on, not how it judges them: any nearby value is an equally valid configuration).
+    "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "
+    "jx = jy = 0",
+    "brdflab/validate/chi2.py:244:17:Add->Sub": "dead branch (see chi2.py:243)",
+    "brdflab/validate/chi2.py:249:72:const 1->2": "dead branch (see chi2.py:243)",
+    "brdflab/validate/chi2.py:378:35:const 1->2": "default sample count of integrate_sphere_bins: only scales the "
+    "refinement tolerance (every caller of consequence passes n)",
+    "brdflab/validate/guard.py:119:31:And->Or": "a plugin method is always called with its arrays, so len(args) > 0",
+    "brdflab/validate/emitters.py:226:43:const 20000->20001": "configuration: default sample count",
+    "brdflab/validate/consistency.py:229:59:const 200000->200001": "configuration: default sample count",
+    "brdflab/validate/battery.py:532:40:const 100000->100001": "configuration: sample cap of the light checks",
+    "brdflab/validate/battery.py:478:14:const 30.0->33.0": "configuration: incident angle of a negative control",
+    "brdflab/validate/stability.py:87:20:const 0.001->0.0011": "configuration: a roughness of the stability sweep",
+    "brdflab/validate/stability.py:93:61:const 10.0->11.0": "configuration: an index ratio of the stability sweep",
+    "brdflab/validate/consistency.py:217:29:const 3->4": "tolerance: 3 vs 4 integration errors on ∫p ≤ 1 (the "
+    "integration error is ≤ 1e-6 on every tested BSDF)",
+    "brdflab/validate/external.py:339:18:const 10->11": "a hint's minimum sample count (the hint is advice, not "
+    "the verdict)",
     "brdflab/bsdf/base.py:102:55:const 1.0->1.1": "the placeholder divisor of the entries the outer where sets "
     "to 0 anyway",
     "brdflab/bsdf/diffuse.py:52:53:const 2->3": "the cosine warp reads only the first two columns of u",

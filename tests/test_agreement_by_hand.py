@@ -69,3 +69,15 @@ def test_block_means_are_rec709_luminance(tmp_path):
     y = 0.2 * 0.212671 + 0.5 * 0.715160 + 0.8 * 0.072169
     assert m.shape == (2, 2)
     np.testing.assert_allclose(m, [[2 * y, y], [2 * y, y]], rtol=1e-6)  # camera +x is the image's left
+
+
+def test_no_comparison_is_no_pass(monkeypatch):
+    """Every block constant and equal in every estimator: no comparison, p = 0, not passed."""
+
+    class Fake:
+        emitters = []
+
+    monkeypatch.setattr(ag, "_load", lambda path, est, *args: Fake())
+    monkeypatch.setattr(ag, "block_means", lambda *a: np.ones((4, 3)))
+    r = ag.estimator_agreement("x.xml", reps=4)
+    assert r.tests == 0 and r.p_value == 0.0 and not r.passed

@@ -269,3 +269,14 @@ def test_failed_samples_may_return_any_direction():
 
     with pytest.raises(PluginFault, match="unit|norm|length"):
         CheckedBSDF(Short(), "short", {}).sample(np.tile([0.0, 0.0, 1.0], (100, 1)), u)
+
+
+def test_pilot_bins_by_hand():
+    """θ edges at the pilot's quantiles (0 and π at the ends), φ edges at the quantiles inside each strip, and
+    a regular φ grid in a strip with fewer than 2·n_phi pilot points."""
+    theta = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 2.0, 2.1])
+    phi = np.array([0.5, 1.0, 4.0, 5.0, 1.0, 2.0, 6.0])
+    te, pe = c2.pilot_bins(theta, phi, 2, 2)
+    assert te.tolist() == pytest.approx([0.0, 0.4, np.pi])  # the median; θ = 0.4 belongs to the upper strip
+    assert pe[0].tolist() == pytest.approx([0.0, np.pi, 2 * np.pi])  # 3 points < 2 · 2: regular
+    assert pe[1].tolist() == pytest.approx([0.0, float(np.quantile(phi[3:], 0.5)), 2 * np.pi])
