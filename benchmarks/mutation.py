@@ -105,6 +105,10 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/plugins.py:291:57:const 1->2": "only the first close match (hint[0]) is shown",
     "brdflab/stats/check.py:359:76:const 1.0->1.1": "placeholder divisor where syy = 0, whose quotient the outer "
     "where replaces by 0",
+    "brdflab/film.py:234:76:Mult->Div": "only chooses between the separable and the direct splat, which give the "
+    "same sums (tests/test_film_merge.py runs both)",
+    "brdflab/film.py:260:26:const 0->1": "the clamp only guards stray positions: the first tap of a sample inside "
+    "the film's region is ≥ 1 (its border is ⌈r⌉ + 1 wide)",
     # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
     # runs on, not how it judges them: any nearby value is an equally valid configuration).
     "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "

@@ -157,3 +157,76 @@ def test_render_merge_mean_and_variance(tmp_path, progressive, workers):
     lo, hi = stats.chi2.ppf(1e-4, W * H), stats.chi2.isf(1e-4, W * H)
     assert lo < chi < hi, (chi, lo, hi, n)
     assert np.allclose(resid[..., 0], resid[..., 2], atol=1e-5)  # the same noise in every channel
+
+
+# -- filters and edges ------------------------------------------------------------------------------------
+def _mitchell(x: np.ndarray, r: float = 2.0, b: float = 1 / 3, c: float = 1 / 3) -> np.ndarray:
+    """Mitchell–Netravali (1988) in |2x/r|, written out per piece."""
+    t = np.abs(2 * x / r)
+    inner = ((12 - 9 * b - 6 * c) * t**3 + (-18 + 12 * b + 6 * c) * t**2 + (6 - 2 * b)) / 6
+    outer = ((-b - 6 * c) * t**3 + (6 * b + 30 * c) * t**2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)) / 6
+    return np.where(t < 1, inner, np.where(t < 2, outer, 0.0))
+
+
+@pytest.mark.parametrize(("r", "b", "c"), [(2.0, 1 / 3, 1 / 3), (1.5, 0.0, 0.5), (3.0, 1.0, 0.0)])
+def test_mitchell_table_by_hand(r, b, c):
+    f = Filter("mitchell", r, b=b, c=c) if (r, b, c) != (2.0, 1 / 3, 1 / 3) else Filter("mitchell")
+    x = r * np.arange(32) / 32
+    np.testing.assert_allclose(f.table[:32], _mitchell(x, r, b, c), rtol=1e-12, atol=1e-15)
+    assert f.table[32] == 0 and f.radius == r
+    # Known values of the default (B = C = 1/3): f(0) = (6 − 2/3)/6 = 8/9, f(r/2) = 1/18 at |2x/r| = 1.
+    if (b, c) == (1 / 3, 1 / 3):
+        assert f.table[0] == pytest.approx(8 / 9) and f.table[16] == pytest.approx(1 / 18)
+
+
+def test_rfilters_from_the_scene(tmp_path):
+    from brdflab.scene.loader import load_scene
+
+    cases = {'<rfilter type="gaussian"><float name="radius" value="1.5"/><float name="stddev" value="0.3"/></rfilter>':
+             ("gaussian", 1.5), '<rfilter type="gaussian"/>': ("gaussian", 2.0),
+             '<rfilter type="mitchell"><float name="radius" value="3"/><float name="B" value="1"/>'
+             '<float name="C" value="0"/></rfilter>': ("mitchell", 3.0),
+             '<rfilter type="tent"/>': ("tent", 1.0), '<rfilter type="box"/>': ("box", 0.5)}
+    for xml, (kind, radius) in cases.items():
+        body = ('<integrator type="normals"/><camera type="perspective"><integer name="width" value="4"/>'
+                f'<integer name="height" value="4"/>{xml}</camera>')
+        f = load_scene(write_scene(tmp_path, body)).filter
+        assert (f.kind, f.radius) == (kind, radius)
+        if kind == "gaussian" and radius == 1.5:
+            np.testing.assert_allclose(f.table[:32], _gauss(np.arange(32) * 1.5 / 32, 1.5, 0.3), rtol=1e-12)
+        if kind == "mitchell":
+            np.testing.assert_allclose(f.table[:32], _mitchell(np.arange(32) * 3 / 32, 3.0, 1.0, 0.0), atol=1e-15)
+
+
+def test_tiles_at_the_image_edges_merge_with_their_tails():
+    """Tiles on the right and bottom edges (their films' borders reach past the image): the whole film
+    equals the splat of all samples into one film."""
+    rng = np.random.default_rng(4)
+    sx, sy = rng.random(3000) * 13, rng.random(3000) * 9
+    v = rng.random((3000, 3))
+    whole = Film(13, 9, Filter())
+    whole.splat(sx, sy, v)
+    merged = Film(13, 9, Filter())
+    for x0, y0, w, h in ((0, 0, 8, 8), (8, 0, 5, 8), (0, 8, 8, 1), (8, 8, 5, 1)):
+        m = (sx >= x0) & (sx < x0 + w) & (sy >= y0) & (sy < y0 + h)
+        tile = Film(13, 9, Filter(), x0, y0, w, h)
+        tile.splat(sx[m], sy[m], v[m])
+        merged.add(tile)
+    np.testing.assert_allclose(merged.image(), whole.image(), rtol=1e-12)
+    np.testing.assert_allclose(merged.data, whole.data, rtol=1e-12, atol=1e-12)
+
+
+def test_camera_pixel_limit_is_inclusive(tmp_path):
+    from brdflab.errors import SceneError
+    from brdflab.film import Camera
+    from brdflab.scene.properties import PropertyList
+
+    def cam(w, h):
+        p = PropertyList("camera")
+        p.set("width", "integer", w)
+        p.set("height", "integer", h)
+        return Camera.from_properties(p)
+
+    assert cam(8000, 8000).width == 8000  # exactly 64 000 000 pixels
+    with pytest.raises(SceneError, match="too large"):
+        cam(8000, 8001)
