@@ -109,6 +109,8 @@ EQUIVALENT: dict[str, str] = {
     "same sums (tests/test_film_merge.py runs both)",
     "brdflab/film.py:260:26:const 0->1": "the clamp only guards stray positions: the first tap of a sample inside "
     "the film's region is ≥ 1 (its border is ⌈r⌉ + 1 wide)",
+    "brdflab/film.py:337:17:Sub->Add": "a tile lies inside the image and both films have the same border, so "
+    "the tile's extent is always the smaller of the two in Film.add",
     # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
     # runs on, not how it judges them: any nearby value is an equally valid configuration).
     "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "
