@@ -111,6 +111,12 @@ EQUIVALENT: dict[str, str] = {
     "the film's region is ≥ 1 (its border is ⌈r⌉ + 1 wide)",
     "brdflab/film.py:337:17:Sub->Add": "a tile lies inside the image and both films have the same border, so "
     "the tile's extent is always the smaller of the two in Film.add",
+    "brdflab/scene/geometry.py:341:20:const 4->5": "only chooses between two occlusion paths with the same result",
+    "brdflab/scene/geometry.py:134:100:const 0->1": "positions of a scene without meshes: no face refers to them",
+    "brdflab/scene/geometry.py:186:83:const 0->1": "per-triangle flags of a scene without triangles: never read",
+    "brdflab/scene/shapes.py:23:55:const 9->10": "configuration: the bump frequency of a procedural benchmark shape",
+    "brdflab/scene/obj.py:407:73:const 1->2": "the fast OBJ scan then reports 'p/t' faces inconsistently and the "
+    "general parser reads the file instead, with the same result",
     # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
     # runs on, not how it judges them: any nearby value is an equally valid configuration).
     "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "

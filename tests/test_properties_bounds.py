@@ -70,3 +70,54 @@ def test_getters_are_strict_and_located():
     assert exc.value.line == 3
     p.set("i", "integer", 5, "f.xml", 9)  # a duplicate replaces the earlier value
     assert p.get_int("i") == 5 and p.where("i") == ("f.xml", 9) and p.names() == ["i", "f", "b", "s"]
+
+
+def test_integer_range_is_the_int64_range(tmp_path):
+    from brdflab.scene.xmlparser import parse_scene_file
+    from tests.conftest import write_scene
+
+    def value(text):
+        p = write_scene(tmp_path, f'<sampler type="independent"><integer name="n" value="{text}"/></sampler>')
+        return parse_scene_file(p).children[0].props.get_int("n")
+
+    assert value(str(2**63 - 1)) == 2**63 - 1 and value(str(-(2**63))) == -(2**63)
+    for bad in (str(2**63), str(-(2**63) - 1)):
+        with pytest.raises(SceneError, match="out of range"):
+            value(bad)
+
+
+def test_a_leaf_object_with_a_child_names_it(tmp_path):
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import write_scene
+
+    p = write_scene(tmp_path, '<integrator type="direct_ems">\n<bsdf type="diffuse"/></integrator>'
+                    '<camera type="perspective"/>')
+    with pytest.raises(SceneError, match=r"cannot contain <bsdf>") as exc:
+        load_scene(p)
+    assert exc.value.line == 3
+
+
+def test_misses_have_no_triangle_and_no_mesh(tmp_path):
+    from brdflab.scene.loader import load_scene
+    from tests.conftest import QUAD_OBJ, write_scene
+
+    body = ('<integrator type="normals"/><camera type="perspective"><integer name="width" value="4"/>'
+            '<integer name="height" value="4"/></camera>'
+            '<mesh type="obj"><string name="filename" value="q.obj"/></mesh>')
+    g = load_scene(write_scene(tmp_path, body, {"q.obj": QUAD_OBJ})).geometry
+    o = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [5.0, 1.0, 0.0]])
+    d = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
+    h = g.intersect(o, d, np.full(3, np.inf))
+    assert h.valid.tolist() == [True, False, False]
+    assert h.prim[1:].tolist() == [-1, -1] and h.mesh[1:].tolist() == [-1, -1] and h.mesh[0] == 0
+    assert np.isinf(h.t[1:]).all() and h.t[0] == pytest.approx(1.0)
+    empty = g.intersect(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+    assert len(empty.valid) == 0
+    # A scene without geometry: every ray misses.
+    body = ('<integrator type="normals"/><camera type="perspective"><integer name="width" value="4"/>'
+            '<integer name="height" value="4"/></camera>')
+    g0 = load_scene(write_scene(tmp_path, body, name="empty.xml")).geometry
+    h0 = g0.intersect(o, d, np.full(3, np.inf))
+    assert not h0.valid.any() and h0.prim.tolist() == [-1] * 3 and h0.mesh.tolist() == [-1] * 3
+    r0 = g0.trace(o, d, np.full(3, np.inf))
+    assert r0.prim.tolist() == [-1] * 3
