@@ -114,6 +114,8 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/scene/geometry.py:341:20:const 4->5": "only chooses between two occlusion paths with the same result",
     "brdflab/scene/geometry.py:134:100:const 0->1": "positions of a scene without meshes: no face refers to them",
     "brdflab/scene/geometry.py:186:83:const 0->1": "per-triangle flags of a scene without triangles: never read",
+    "brdflab/scene/loader.py:263:18:const 0.0->1.0": "the OBJ loading time reported in the load summary (a "
+    "measurement, which no test may assert)",
     "brdflab/scene/shapes.py:23:55:const 9->10": "configuration: the bump frequency of a procedural benchmark shape",
     "brdflab/scene/obj.py:407:73:const 1->2": "the fast OBJ scan then reports 'p/t' faces inconsistently and the "
     "general parser reads the file instead, with the same result",

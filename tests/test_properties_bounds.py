@@ -121,3 +121,18 @@ def test_misses_have_no_triangle_and_no_mesh(tmp_path):
     assert not h0.valid.any() and h0.prim.tolist() == [-1] * 3 and h0.mesh.tolist() == [-1] * 3
     r0 = g0.trace(o, d, np.full(3, np.inf))
     assert r0.prim.tolist() == [-1] * 3
+
+
+def test_degenerate_triangles_are_counted_exactly(tmp_path):
+    """A collinear triangle away from the origin is degenerate (one warning, counted); a proper triangle whose
+    third corner is −(first corner) is not."""
+    from brdflab.scene.obj import load_obj
+
+    (tmp_path / "m.obj").write_text("v 1 1 1\nv 2 1 1\nv 3 1 1\nv 1 0 0\nv 0 1 0\nv -1 0 0\nf 1 2 3\nf 4 5 6\n")
+    with pytest.warns(UserWarning, match=r"m.obj:7: 1 degenerate \(zero-area\) triangle;"):
+        m = load_obj(tmp_path / "m.obj")
+    assert m.faces.shape == (2, 3)
+    (tmp_path / "ok.obj").write_text("v 1 0 0\nv 0 1 0\nv -1 0 0\nf 1 2 3\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_obj(tmp_path / "ok.obj")
