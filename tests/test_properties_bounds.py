@@ -136,3 +136,20 @@ def test_degenerate_triangles_are_counted_exactly(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         load_obj(tmp_path / "ok.obj")
+
+
+def test_procedural_sphere_by_hand():
+    """uv_sphere: vertices at the radius around the centre, unit outward normals, (u, v) = (φ/2π, 1 − θ/π)
+    spanning [0, 1]², counter-clockwise faces (winding normal along the vertex normals), no pole slivers."""
+    from brdflab.scene.shapes import uv_sphere
+
+    c = np.array([1.0, -2.0, 0.5])
+    v, f, n, uv = uv_sphere(c, 2.0, 6, 8)
+    np.testing.assert_allclose(np.linalg.norm(v - c, axis=1), 2.0)
+    np.testing.assert_allclose(n, (v - c) / 2.0, atol=1e-12)
+    assert uv.min(axis=0).tolist() == [0.0, 0.0] and uv.max(axis=0).tolist() == [1.0, 1.0]
+    theta = np.arccos(np.clip(n[:, 1], -1, 1))
+    np.testing.assert_allclose(uv[:, 1], 1 - theta / np.pi, atol=1e-12)
+    wind = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", wind, n[f].mean(axis=1)) > 0)
+    assert len(f) == 2 * 6 * 8 - 2 * 8  # the 2 · n_φ degenerate pole triangles dropped
