@@ -153,3 +153,20 @@ def test_procedural_sphere_by_hand():
     wind = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     assert np.all(np.einsum("ij,ij->i", wind, n[f].mean(axis=1)) > 0)
     assert len(f) == 2 * 6 * 8 - 2 * 8  # the 2 · n_φ degenerate pole triangles dropped
+
+
+def test_python_overrides_and_defaults(tmp_path):
+    """load_scene's overrides: seed ≥ 0 (0 allowed), spp ≥ 1; uv_sphere's default centre is the origin."""
+    from brdflab.errors import BrdflabError
+    from brdflab.scene.loader import load_scene
+    from brdflab.scene.shapes import uv_sphere
+    from tests.conftest import write_scene
+
+    p = write_scene(tmp_path, '<integrator type="normals"/><camera type="perspective"/>')
+    assert load_scene(p, seed=0).seed == 0 and load_scene(p, spp=1).spp == 1
+    for kw, message in (({"seed": -1}, "seed must be an integer ≥ 0"), ({"spp": 0}, "spp must be an integer ≥ 1"),
+                        ({"seed": True}, "seed must be an integer"), ({"spp": 2.0}, "spp must be an integer")):
+        with pytest.raises(BrdflabError, match=message):
+            load_scene(p, **kw)
+    v, _, n, _ = uv_sphere()
+    np.testing.assert_allclose(v, n, atol=1e-12)
