@@ -107,6 +107,7 @@ EQUIVALENT: dict[str, str] = {
     "where replaces by 0",
     "brdflab/film.py:234:76:Mult->Div": "only chooses between the separable and the direct splat, which give the "
     "same sums (tests/test_film_merge.py runs both)",
+    "brdflab/film.py:154:33:const 2->3": "extra taps of the table-free splat lie beyond the radius: weight 0",
     "brdflab/film.py:260:26:const 0->1": "the clamp only guards stray positions: the first tap of a sample inside "
     "the film's region is ≥ 1 (its border is ⌈r⌉ + 1 wide)",
     "brdflab/film.py:337:17:Sub->Add": "a tile lies inside the image and both films have the same border, so "

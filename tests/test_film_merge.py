@@ -227,6 +227,7 @@ def test_camera_pixel_limit_is_inclusive(tmp_path):
         p.set("height", "integer", h)
         return Camera.from_properties(p)
 
-    assert cam(8000, 8000).width == 8000  # exactly 64 000 000 pixels
-    with pytest.raises(SceneError, match="too large"):
-        cam(8000, 8001)
+    assert cam(8000, 8000).width == 8000 and cam(1, 64_000_000).height == 64_000_000  # exactly the limit
+    for w, h in ((8000, 8001), (1, 64_000_001)):
+        with pytest.raises(SceneError, match="too large"):
+            cam(w, h)
