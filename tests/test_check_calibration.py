@@ -103,7 +103,10 @@ def test_welch_block_t_p_holm_and_mean_z_by_hand():
     assert r.min_detectable_bias == pytest.approx((stats.norm.isf(ALPHA / 4) + z80) * sd_mean / 0.75, rel=1e-9)
     t_crit = stats.t.isf(ALPHA / 2 / M_TESTS / 2, WELCH_DF)
     assert r.min_detectable_block_bias == pytest.approx((t_crit + z80) * math.sqrt(WELCH_VAR) / 0.75, rel=1e-6)
-    assert "detectable: mean bias" in r.verdict() and r.verdict().startswith("BIASED: p = ")
+    lo, hi = r.bias_ci
+    assert r.verdict().startswith(f"BIASED: p = {r.p_value:.3g}; image mean {100 * r.bias:+.2f} % "
+                                  f"(99 % CI {100 * lo:+.2f} … {100 * hi:+.2f} %); 0 blocks too dark, "
+                                  "1 too bright of 4; detectable: mean bias ≥ ")
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
@@ -360,3 +363,18 @@ def test_scan_window_by_hand(noisier):
     assert f["t"] == pytest.approx(t_window, rel=1e-9)
     assert f["p_adjusted"] == pytest.approx(75 * 2.9e-5, rel=1e-6)
     assert r.bright_blocks == 4 and r.dark_blocks == 0  # the window marks the base blocks it covers
+
+
+def test_residual_method_removes_one_global_gain_by_hand():
+    """A given reference ȳ that varies inside every block (the same ramp in each), a user render
+    (1 + ε)·ȳ + a·s: the one global fit r ≈ c·ȳ takes c = ε exactly (the checkerboard is orthogonal to the
+    ramp), so the spread left is a·s alone: Var D_b = a²/(n − 1) with D_b = ε·mean(ȳ); the uniform bias is not
+    taken for noise."""
+    yy, xx = np.mgrid[0:S, 0:S]
+    ref = (0.75 + 0.02 * ((xx % 16) - 7.5))[..., None] * np.ones(3)
+    eps = 0.01
+    user = (1 + eps) * ref + A * CHECK
+    r = check_images([user], Estimate(ref.copy()), levels=1)
+    assert r.method == "residual"
+    t = eps * 0.75 / math.sqrt(A * A / (N_BLOCK - 1))
+    np.testing.assert_allclose(r.z_map, t, rtol=1e-9)

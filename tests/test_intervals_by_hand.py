@@ -96,3 +96,11 @@ def test_block_statistics_by_hand():
     s = B.block_sum(a, 4)
     assert s[:, :, 0].tolist() == [[a[:4, :4].sum(), a[:4, 4:].sum()], [a[4:, :4].sum(), a[4:, 4:].sum()]]
     assert B.expand(s, 4, (5, 7))[4, 6, 0] == s[1, 1, 0] and B.expand(s, 4, (5, 7)).shape == (5, 7, 1)
+    for shape in ((8, 7), (5, 8), (8, 8)):  # only one side (or neither) a multiple of the block
+        a = np.arange(shape[0] * shape[1], dtype=float).reshape(*shape, 1)
+        s = B.block_sum(a, 4)
+        assert s.shape == (-(-shape[0] // 4), -(-shape[1] // 4), 1) and s.sum() == a.sum()
+        assert s[-1, -1, 0] == a[4:, 4:].sum()
+    # A block without residual (a black region): the normal-theory count, finite.
+    zero = np.zeros((1, 2, 2, 1))
+    assert B.kurtosis_df(zero, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(6.0)
