@@ -365,16 +365,29 @@ def test_scan_window_by_hand(noisier):
     assert r.bright_blocks == 4 and r.dark_blocks == 0  # the window marks the base blocks it covers
 
 
-def test_residual_method_removes_one_global_gain_by_hand():
+@pytest.mark.parametrize("level", [1.0, 0.01])
+def test_residual_method_removes_one_global_gain_by_hand(level):
     """A given reference ȳ that varies inside every block (the same ramp in each), a user render
     (1 + ε)·ȳ + a·s: the one global fit r ≈ c·ȳ takes c = ε exactly (the checkerboard is orthogonal to the
     ramp), so the spread left is a·s alone: Var D_b = a²/(n − 1) with D_b = ε·mean(ȳ); the uniform bias is not
-    taken for noise."""
+    taken for noise. ``level`` 0.01: a dim image (Σ ȳ² < 1) is fitted alike."""
     yy, xx = np.mgrid[0:S, 0:S]
-    ref = (0.75 + 0.02 * ((xx % 16) - 7.5))[..., None] * np.ones(3)
+    ref = level * (0.75 + 0.02 * ((xx % 16) - 7.5))[..., None] * np.ones(3)
     eps = 0.01
-    user = (1 + eps) * ref + A * CHECK
+    user = (1 + eps) * ref + level * A * CHECK
     r = check_images([user], Estimate(ref.copy()), levels=1)
     assert r.method == "residual"
     t = eps * 0.75 / math.sqrt(A * A / (N_BLOCK - 1))
     np.testing.assert_allclose(r.z_map, t, rtol=1e-9)
+
+
+def test_a_black_image_and_a_given_reference_are_reported_as_such():
+    """All-black reference and render: no bias ratio, no interval (not ±∞), consistent; a given reference
+    reports no runs and no spp."""
+    from brdflab.stats.check import run_check
+
+    black = np.zeros((S, S, 3))
+    r = check_images([black], Estimate(black.copy()), levels=1)
+    assert r.consistent and math.isnan(r.bias) and all(math.isnan(v) for v in r.bias_ci)
+    res = run_check([BASE + A * CHECK], "unused.xml", "direct_ems", ref=BASE.copy(), levels=1)
+    assert (res.reference_runs, res.reference_spp, res.reference_label) == (0, 0, "given reference")
