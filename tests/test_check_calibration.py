@@ -389,5 +389,9 @@ def test_a_black_image_and_a_given_reference_are_reported_as_such():
     black = np.zeros((S, S, 3))
     r = check_images([black], Estimate(black.copy()), levels=1)
     assert r.consistent and math.isnan(r.bias) and all(math.isnan(v) for v in r.bias_ci)
+    lit = black.copy()
+    lit[:2, :2] = 0.5  # light where the reference is black: still no ratio to a mean of 0
+    r = check_images([lit], Estimate(black.copy()), levels=1)
+    assert math.isnan(r.bias) and all(math.isnan(v) for v in r.bias_ci)
     res = run_check([BASE + A * CHECK], "unused.xml", "direct_ems", ref=BASE.copy(), levels=1)
     assert (res.reference_runs, res.reference_spp, res.reference_label) == (0, 0, "given reference")
