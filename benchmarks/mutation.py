@@ -120,6 +120,9 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/scene/shapes.py:23:55:const 9->10": "configuration: the bump frequency of a procedural benchmark shape",
     "brdflab/scene/obj.py:407:73:const 1->2": "the fast OBJ scan then reports 'p/t' faces inconsistently and the "
     "general parser reads the file instead, with the same result",
+    "brdflab/stats/check.py:534:52:const 1.0->1.1": "the score of a window not shown only has to be negative",
+    "brdflab/stats/check.py:357:33:Gt->GtE": "a window without residual: 0/1 → κ clipped to 3, the value of the "
+    "other branch",
     "brdflab/stats/check.py:589:95:const 4->5": "configuration: run_check's default number of runs (the CLI "
     "passes its own)",
     # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery

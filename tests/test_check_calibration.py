@@ -395,3 +395,20 @@ def test_a_black_image_and_a_given_reference_are_reported_as_such():
     assert math.isnan(r.bias) and all(math.isnan(v) for v in r.bias_ci)
     res = run_check([BASE + A * CHECK], "unused.xml", "direct_ems", ref=BASE.copy(), levels=1)
     assert (res.reference_runs, res.reference_spp, res.reference_label) == (0, 0, "given reference")
+
+
+def test_partial_edge_block_by_hand():
+    """40 × 32 image: the bottom row of blocks is 8 pixels high (n = 128). A difference D there has
+    t = D/√((a² + b²)/128) and is reported as a 16 × 8 block."""
+    h = 40
+    yy, xx = np.mgrid[0:h, 0:S]
+    checker = np.where((yy + xx) % 2 == 0, 1.0, -1.0)[..., None] * np.ones(3)
+    base = np.full((h, S, 3), 0.75)
+    t = _t_for_p(1e-5, 200)
+    d = t * math.sqrt((A * A + B_ * B_) / 128)
+    shifted = base.copy()
+    shifted[32:, :16] += d
+    r = check_images([shifted + A * checker, shifted - A * checker],
+                     Estimate.from_runs([base + B_ * checker, base - B_ * checker]), levels=1)
+    assert r.z_map.shape == (3, 2) and r.z_map[2, 0] == pytest.approx(t, rel=1e-9)
+    assert [(f["x"], f["y"], f["w"], f["h"]) for f in r.flagged] == [(0, 32, 16, 8)]
