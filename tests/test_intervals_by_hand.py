@@ -88,6 +88,8 @@ def test_block_statistics_by_hand():
     e = np.array([4.0, 0.0, 0.0, 0.0]).reshape(1, 2, 2, 1)  # κ = 4 · 256 / 16² = 4
     valid = np.ones((2, 2), bool)
     assert B.kurtosis_df(e, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(2 * 6 / 3)
+    small = np.array([0.4, 0.0, 0.0, 0.0]).reshape(1, 2, 2, 1)  # the same κ = 4 at any scale (Σe² < 1 too)
+    assert B.kurtosis_df(small, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(2 * 6 / 3)
     e = np.array([1.0, -1.0, 3.0, -3.0]).reshape(1, 2, 2, 1)  # κ = 4 · 164 / 400 < 3 → 3
     assert B.kurtosis_df(e, valid, 2, np.array([[[6.0]]]))[0, 0, 0] == pytest.approx(6.0)
     # Blocks of a 5 × 7 image with side 4: 2 × 2 blocks, edge blocks partial, expand back to pixels.
