@@ -412,3 +412,18 @@ def test_partial_edge_block_by_hand():
                      Estimate.from_runs([base + B_ * checker, base - B_ * checker]), levels=1)
     assert r.z_map.shape == (3, 2) and r.z_map[2, 0] == pytest.approx(t, rel=1e-9)
     assert [(f["x"], f["y"], f["w"], f["h"]) for f in r.flagged] == [(0, 32, 16, 8)]
+
+
+def test_degrees_of_freedom_follow_the_correlation_factor():
+    """Noise constant on 4 × 4 squares (neighbours correlated: F > 1). Whatever F the image gives, a block's
+    degrees of freedom in the residual method are n_eff = n/F − 1 (eq. (2), κ = 1 < 3): the Holm-adjusted p of
+    the flagged block is 12 · 2·sf(t, n_eff)."""
+    yy, xx = np.mgrid[0:S, 0:S]
+    squares = np.where((yy // 4 + xx // 4) % 2 == 0, 1.0, -1.0)[..., None] * np.ones(3)
+    d = 0.2
+    user = BASE + _planted(d) + A * squares
+    r = check_images([user], Estimate(BASE.copy()), levels=1)
+    f = r.correlation_factor
+    assert f > 1.1
+    t = r.z_map[0, 1]
+    assert r.flagged[0]["p_adjusted"] == pytest.approx(M_TESTS * 2 * stats.t.sf(t, N_BLOCK / f - 1), rel=1e-6)
