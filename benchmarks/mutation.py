@@ -7,7 +7,10 @@ Run from the repository root (CPU-heavy: a bounded, reproducible sample of the m
     python benchmarks/mutation.py --list               # only list the mutants
     python benchmarks/mutation.py --only brdflab/bsdf/fresnel.py:41:3   # one mutant, by its id
 
-Scope: ``brdflab/bsdf``, ``brdflab/emitter``, ``brdflab/integrator`` and ``brdflab/math/warps.py``.
+Scope: ``brdflab/bsdf``, ``brdflab/emitter``, ``brdflab/integrator`` and ``brdflab/math/warps.py``; with
+``--scope PATH`` (repeatable) another package or file, judged by its own selection (:data:`SELECTIONS`:
+``brdflab/stats``, ``brdflab/validate``, ``brdflab/plugins.py``, ``brdflab/scene``, ``brdflab/film.py``) or by
+``--tests``.
 
 Why a small AST mutator of our own instead of ``mutmut``/``cosmic-ray``: mutmut 3 mutates only inside
 functions (module-level constants such as ``P_SPECULAR_MAX`` or ``INV_PI`` are left alone), runs through
@@ -71,10 +74,76 @@ TESTS = [
     "tests/test_validate.py::test_furnace",
 ]
 DESELECT: list[str] = []
+#: Further scopes (``--scope``), each with its own fast test selection (used instead of :data:`TESTS`).
+SELECTIONS: dict[str, list[str]] = {
+    "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_intervals_by_hand.py", "tests/test_check.py",
+                      "tests/test_report_runs.py"],
+    "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_agreement_by_hand.py",
+                         "tests/test_external_reader_2.py", "tests/test_open_checks.py", "tests/test_validate.py",
+                         "tests/test_validate_light.py", "tests/test_chi2_pages.py",
+                         "tests/test_light_paths.py::test_estimators_agree",
+                         "tests/test_light_paths.py::test_agreement_rejects_a_forgotten_selection_probability"],
+    "brdflab/plugins.py": ["tests/test_param_conversion.py", "tests/test_plugins_registry_2.py",
+                           "tests/test_plugins.py", "tests/test_open_checks.py"],
+    "brdflab/scene": ["tests/test_properties_bounds.py", "tests/test_parser.py", "tests/test_render_paths_2.py",
+                      "tests/test_texture_camera_2.py", "tests/test_obj_fast.py",
+                      "tests/test_param_conversion.py", "tests/test_bad_inputs.py", "tests/test_golden.py",
+                      "tests/test_render.py", "tests/test_light_paths.py::test_estimators_match_closed_forms",
+                      "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
+                      "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
+    "brdflab/film.py": ["tests/test_film_merge.py", "tests/test_camera_film.py", "tests/test_texture_camera_2.py",
+                        "tests/test_render_paths_2.py",
+                        "tests/test_render.py",
+                        "tests/test_golden.py::test_scene_file_defaults", "tests/test_bad_inputs.py"],
+}
 
 
 #: Reviewed survivors that cannot change any result: mutant id → reason.
 EQUIVALENT: dict[str, str] = {
+    "brdflab/plugins.py:286:16:Or->And": "the list of valid types is never empty (BUILTIN has entries for every "
+    "tag), so the 'none' fallback is unreachable",
+    "brdflab/plugins.py:291:57:const 1->2": "only the first close match (hint[0]) is shown",
+    "brdflab/stats/check.py:359:76:const 1.0->1.1": "placeholder divisor where syy = 0, whose quotient the outer "
+    "where replaces by 0",
+    "brdflab/film.py:234:76:Mult->Div": "only chooses between the separable and the direct splat, which give the "
+    "same sums (tests/test_film_merge.py runs both)",
+    "brdflab/film.py:154:33:const 2->3": "extra taps of the table-free splat lie beyond the radius: weight 0",
+    "brdflab/film.py:260:26:const 0->1": "the clamp only guards stray positions: the first tap of a sample inside "
+    "the film's region is ≥ 1 (its border is ⌈r⌉ + 1 wide)",
+    "brdflab/film.py:337:17:Sub->Add": "a tile lies inside the image and both films have the same border, so "
+    "the tile's extent is always the smaller of the two in Film.add",
+    "brdflab/scene/geometry.py:341:20:const 4->5": "only chooses between two occlusion paths with the same result",
+    "brdflab/scene/geometry.py:134:100:const 0->1": "positions of a scene without meshes: no face refers to them",
+    "brdflab/scene/geometry.py:186:83:const 0->1": "per-triangle flags of a scene without triangles: never read",
+    "brdflab/scene/loader.py:263:18:const 0.0->1.0": "the OBJ loading time reported in the load summary (a "
+    "measurement, which no test may assert)",
+    "brdflab/scene/shapes.py:23:55:const 9->10": "configuration: the bump frequency of a procedural benchmark shape",
+    "brdflab/scene/obj.py:407:73:const 1->2": "the fast OBJ scan then reports 'p/t' faces inconsistently and the "
+    "general parser reads the file instead, with the same result",
+    "brdflab/stats/check.py:534:52:const 1.0->1.1": "the score of a window not shown only has to be negative",
+    "brdflab/stats/check.py:357:33:Gt->GtE": "a window without residual: 0/1 → κ clipped to 3, the value of the "
+    "other branch",
+    "brdflab/stats/check.py:589:95:const 4->5": "configuration: run_check's default number of runs (the CLI "
+    "passes its own)",
+    # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
+    # runs on, not how it judges them: any nearby value is an equally valid configuration).
+    "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "
+    "jx = jy = 0",
+    "brdflab/validate/chi2.py:244:17:Add->Sub": "dead branch (see chi2.py:243)",
+    "brdflab/validate/chi2.py:249:72:const 1->2": "dead branch (see chi2.py:243)",
+    "brdflab/validate/chi2.py:378:35:const 1->2": "default sample count of integrate_sphere_bins: only scales the "
+    "refinement tolerance (every caller of consequence passes n)",
+    "brdflab/validate/guard.py:119:31:And->Or": "a plugin method is always called with its arrays, so len(args) > 0",
+    "brdflab/validate/emitters.py:226:43:const 20000->20001": "configuration: default sample count",
+    "brdflab/validate/consistency.py:229:59:const 200000->200001": "configuration: default sample count",
+    "brdflab/validate/battery.py:532:40:const 100000->100001": "configuration: sample cap of the light checks",
+    "brdflab/validate/battery.py:478:14:const 30.0->33.0": "configuration: incident angle of a negative control",
+    "brdflab/validate/stability.py:87:20:const 0.001->0.0011": "configuration: a roughness of the stability sweep",
+    "brdflab/validate/stability.py:93:61:const 10.0->11.0": "configuration: an index ratio of the stability sweep",
+    "brdflab/validate/consistency.py:217:29:const 3->4": "tolerance: 3 vs 4 integration errors beside the fixed "
+    "1e-3 margin of ∫p ≤ 1",
+    "brdflab/validate/external.py:339:18:const 10->11": "a hint's minimum sample count (the hint is advice, not "
+    "the verdict)",
     "brdflab/bsdf/base.py:102:55:const 1.0->1.1": "the placeholder divisor of the entries the outer where sets "
     "to 0 anyway",
     "brdflab/bsdf/diffuse.py:52:53:const 2->3": "the cosine warp reads only the first two columns of u",
@@ -312,7 +381,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--summarize", type=Path, help="recompute the summary of a results .jsonl (current EQUIVALENT)")
     ap.add_argument("-o", "--output", type=Path, default=ROOT / "benchmarks" / "mutation_results.json")
+    ap.add_argument("--scope", action="append", default=[],
+                    help=f"mutate these paths instead (repeatable; with its test selection: {', '.join(SELECTIONS)})")
+    ap.add_argument("--tests", action="append", default=[], help="test selection instead of the scope's (repeatable)")
     args = ap.parse_args(argv)
+    if args.scope:
+        SCOPE[:] = args.scope
+        TESTS[:] = [t for s in args.scope for t in SELECTIONS.get(s, [])] or TESTS
+    if args.tests:
+        TESTS[:] = args.tests
 
     if args.summarize:
         rows = [json.loads(line) for line in args.summarize.read_text().splitlines() if line.strip()]
