@@ -131,12 +131,16 @@ def code_location(exc: BaseException) -> str:
     of a SyntaxError; empty when the error has no such frame."""
     import traceback
 
+    def tail(name: str, n: int = 50) -> str:  # the end of a long path: its file name and line stay readable
+        name = clean(name, 10_000)
+        return name if len(name) <= n else "…" + name[-(n - 1):]
+
     if isinstance(exc, SyntaxError) and exc.filename:
-        return f" (at {clean(exc.filename, 100)}:{exc.lineno})"
+        return f" (at {tail(exc.filename)}:{exc.lineno})"
     own = str(Path(__file__).resolve().parent)
     frames = [f for f in traceback.extract_tb(exc.__traceback__)
               if not str(Path(f.filename).resolve()).startswith(own) and "importlib" not in f.filename]
     if not frames:
         return ""
     f = frames[-1]
-    return f" (at {clean(f.filename, 100)}:{f.lineno})"
+    return f" (at {tail(f.filename)}:{f.lineno})"

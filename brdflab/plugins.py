@@ -64,7 +64,15 @@ from typing import Any
 from brdflab.builtin_types import BUILTIN, UNSUPPORTED
 from brdflab.builtin_types import is_builtin_class as _is_builtin_class
 from brdflab.errors import BrdflabError, SceneError, clean, code_location, first_line
-from brdflab.parameters import _KINDS, _init_defaults, build_bsdf, convert_value, parameter_kinds, properties_for  # noqa: F401 (re-exported)
+from brdflab.parameters import (  # noqa: F401 (re-exported: they lived here)
+    _KINDS,
+    _init_defaults,
+    _kind_of,
+    build_bsdf,
+    convert_value,
+    parameter_kinds,
+    properties_for,
+)
 from brdflab.scene.properties import PropertyList  # noqa: F401 (re-exported)
 
 #: Entry-point group through which installed packages register BSDFs.
@@ -176,7 +184,7 @@ def _load_file(path: Path, clsname: str, text: str) -> list[str]:
             sys.modules.pop(modname, None)
             if isinstance(exc, KeyboardInterrupt):
                 raise
-            raise BrdflabError(f"{_short(str(path), 100)}: the plugin failed to import: {_first_line(exc)}"
+            raise BrdflabError(f"{_short(str(path), 80)}: the plugin failed to import: {first_line(exc, 120)}"
                                f"{plugin_location(exc)}") from exc
     if clsname:
         cls = vars(module).get(clsname)

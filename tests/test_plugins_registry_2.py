@@ -121,5 +121,6 @@ def test_import_error_message_is_one_bounded_line(tmp_path):
     with pytest.raises(BrdflabError) as exc:
         plugins.load_plugin(f)
     text = str(exc.value)
-    detail = text.split("failed to import: ", 1)[1]
-    assert "\n" not in text and "second line" not in text and len(detail) == 160 and detail.endswith("…")
+    detail, _, where = text.split("failed to import: ", 1)[1].rpartition(" (at ")
+    assert "\n" not in text and "second line" not in text and len(detail) == 120 and detail.endswith("…")
+    assert where.endswith("long_error_plugin.py:1)") and len(text) <= 300  # the plugin's own line, in one line
