@@ -202,16 +202,15 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, tit
     """``fit.html``, ``fit.json`` and the θh × θd views (measured | model | log₁₀ ratio) into ``out``."""
     import json
 
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from brdflab.bsdf.measured import Measured
     from brdflab.plugins import make_bsdf
     from brdflab.report import page as html
     from brdflab.viz import views
+    from brdflab.viz.mpl import safe_figures
 
+    safe_figures()
     out.mkdir(parents=True, exist_ok=True)
     meas = Measured(table=measured_table)
     model = make_bsdf(result.model, result.params)

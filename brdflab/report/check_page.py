@@ -19,7 +19,9 @@ def write_block_map(path: Path, user: np.ndarray, result, title: str = "") -> No
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
@@ -50,7 +52,9 @@ def write_z_map(path: Path, result) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
 
     z = result.z_map

@@ -98,7 +98,9 @@ def write_heatmap(path, test: np.ndarray, ref: np.ndarray, title: str = "relativ
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
@@ -185,7 +187,9 @@ def write_signed_map(path, test: np.ndarray, ref: np.ndarray, title: str = "sign
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
 
     from brdflab.imageio import _atomic_write

@@ -35,7 +35,9 @@ def _albedo_plot(bat: Battery, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
 
     names = sorted({p.name for p in bat.albedo})

@@ -74,7 +74,9 @@ def plot_curves(study: Study, out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
 
     paths = []
@@ -119,7 +121,9 @@ def plot_error_maps(study: Study, out: Path) -> dict[str, Path]:
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 

@@ -16,7 +16,9 @@ def _plt():
     import matplotlib
 
     matplotlib.use("Agg")
-    matplotlib.rcParams["text.parse_math"] = False  # user text (a $ in a name) is never mathtext
+    from brdflab.viz.mpl import safe_figures
+
+    safe_figures()  # user text is never mathtext; log axes still read 10⁻²
     import matplotlib.pyplot as plt
 
     return plt
