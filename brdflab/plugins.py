@@ -82,6 +82,8 @@ ENTRY_POINT_GROUP = "brdflab.bsdfs"
 _USER_BSDFS: dict[str, type] = {}
 #: Where each user BSDF came from (for messages).
 _ORIGIN: dict[str, str] = {}
+#: Classes registered under another name than their own ``type_name``: name → (class, its own name).
+_RENAMED: dict[str, tuple[type, str]] = {}
 _ENTRY_POINTS_LOADED = False
 #: ``--plugin`` specs loaded in this process, in order (forwarded to cluster workers).
 LOADED_SPECS: list[str] = []
@@ -122,6 +124,8 @@ def register_bsdf(cls: type, name: str | None = None, *, origin: str = "register
         raise BrdflabError(f"{origin}: {cls.__name__} does not implement {', '.join(missing)} "
                            "(the BSDF contract: eval, pdf and sample on (N, 3) local directions)")
     parameter_kinds(cls, origin=origin)  # reject unusable signatures now, not at first use
+    if cls.type_name != name:  # registered under another name (an entry point's): unregister restores it
+        _RENAMED[name] = (cls, cls.type_name)
     cls.type_name = name
     _USER_BSDFS[name] = cls
     _ORIGIN[name] = origin
@@ -405,7 +409,11 @@ def _first_line(exc: BaseException) -> str:
 
 
 def unregister_bsdf(name: str) -> None:
-    """Remove a user BSDF (tests and notebooks that redefine a class)."""
+    """Remove a user BSDF (tests and notebooks that redefine a class); a class registered under another name
+    than its own ``type_name`` gets its name back."""
     _USER_BSDFS.pop(name, None)
     _ORIGIN.pop(name, None)
+    if name in _RENAMED:
+        cls, original = _RENAMED.pop(name)
+        cls.type_name = original
 
