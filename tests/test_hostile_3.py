@@ -21,9 +21,7 @@ from brdflab.cli.main import main
 from brdflab.errors import BrdflabError, ImageError, ResourceError
 from brdflab.imageio import write_exr, write_images
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
-
-POINT = '<emitter type="pointlight"><point name="position" value="0,2,0"/></emitter>'
-MESH = '<mesh type="obj"><string name="filename" value="q.obj"/>{}</mesh>'
+from tests.test_hostile import MESH, POINT, _fails  # noqa: E402 (shared helpers)
 
 
 def _scene(tmp_path, bsdf: str = "", name: str = "scene.xml"):
@@ -31,12 +29,6 @@ def _scene(tmp_path, bsdf: str = "", name: str = "scene.xml"):
                        {"q.obj": QUAD_OBJ}, name=name)
 
 
-def _fails(argv, capsys, pattern: str, status: int = 2) -> str:
-    assert main([str(a) for a in argv]) == status
-    err = capsys.readouterr().err
-    assert "Traceback" not in err and err.count("\n") == 1 and len(err) <= 320, err
-    assert re.search(pattern, err), err
-    return err
 
 
 def _usage_error(argv, capsys, pattern: str) -> None:

@@ -7,24 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.validate.quadrature import (  # noqa: F401 (re-exported: the module's former contents)
-    BASE_CELL,
-    _expand,
-    _frame,
-    _gl_rects,
-    _graded_cuts,
-    _neighbour_widths,
-    _split_cells,
-    adaptive_integrate,
-    from_angles,
-    integrate_bins,
-    integrate_rects,
-    integrate_sphere_bins,
-    sphere_cells,
-    sphere_integrand,
-    to_angles,
-)
-
 
 def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
     """Bin edges from pilot angles: θ strips at quantiles, then φ edges at quantiles inside each strip.

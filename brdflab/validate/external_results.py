@@ -11,20 +11,6 @@ import numpy as np
 
 from brdflab.validate import chi2 as c2
 from brdflab.validate import selfconsistency as _sc
-from brdflab.validate.sample_files import (  # noqa: F401 (re-exported: the module's former contents)
-    ALLOWED,
-    EXPECTED,
-    WI_TOLERANCE,
-    Samples,
-    _check_array_header,
-    _columns,
-    _is_float,
-    _load_array,
-    _short,
-    group_by_wi,
-    read_samples,
-    read_table,
-)
 
 #: Per-sample relative tolerance of the pdf and weight columns, and the fraction allowed beyond it.
 COLUMN_RTOL = 1e-2
