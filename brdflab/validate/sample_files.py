@@ -105,6 +105,9 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
     except UnicodeDecodeError:
         raise BrdflabError("not a text file (expected whitespace-separated numbers; binary data: use .npy)",
                            file=path) from None
+    fast = _read_text_fast(text, allowed)
+    if fast is not None:
+        return fast
     for num, raw in enumerate(text.splitlines(), 1):
         tokens = raw.split("#", 1)[0].split()
         if not tokens:
@@ -127,6 +130,32 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
     if not rows:
         raise BrdflabError("no samples (only comments or blank lines)", file=path)
     return np.array(rows), np.array(lines), ncol
+
+
+def _read_text_fast(text: str, allowed: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """NumPy's C parser for a well-formed text table (1 M rows in about a second, where the line-by-line
+    reader takes ten); None for anything else — a malformed file goes through the line-by-line reader, which
+    says where and what is wrong."""
+    import io
+    import warnings
+
+    from brdflab.limits import check_memory
+
+    # the parse holds the text, its lines and the float table at once: about 3 × the text plus 8 B a number
+    check_memory(4 * len(text) + 8 * (len(text) // 2), "parsing the text samples file (use .npy for large ones)")
+    lines = text.splitlines()
+    keep = [i for i, raw in enumerate(lines, 1) if raw.split("#", 1)[0].strip()]
+    if not keep:
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            data = np.loadtxt(io.StringIO(text), comments="#", dtype=np.float64, ndmin=2)
+    except (ValueError, TypeError, OverflowError):
+        return None
+    if data.shape[0] != len(keep) or data.shape[1] not in allowed or not np.all(np.isfinite(data)):
+        return None
+    return data, np.asarray(keep), data.shape[1]
 
 
 def _load_array(path: Path) -> np.ndarray:
