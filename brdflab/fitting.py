@@ -200,11 +200,11 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
 def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, title: str = "brdflab fit",
                    phi_d: float = 90.0) -> Path:
     """``fit.html``, ``fit.json`` and the θh × θd views (measured | model | log₁₀ ratio) into ``out``."""
-    import json
 
     import matplotlib.pyplot as plt
 
     from brdflab.bsdf.measured import Measured
+    from brdflab.outputs import json_text, write_text
     from brdflab.plugins import make_bsdf
     from brdflab.report import page as html
     from brdflab.viz import views
@@ -235,11 +235,11 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, tit
     png = out / "fit_slices.png"
     fig.savefig(png, dpi=110)
     plt.close(fig)
-    (out / "fit.json").write_text(json.dumps(result.to_dict(), indent=2))
+    write_text(out / "fit.json", json_text(result.to_dict(), indent=2))
     rows = [[k, _fmt(v)] for k, v in result.params.items()]
     body = (html.section("Fitted parameters", html.table(["parameter", "value"], rows)
                          + html.esc_p(result.summary()))
             + html.section("Measured, model and residual", html.image_row([(png, "θh × θd slices")], cls="plot")))
     path = out / "fit.html"
-    path.write_text(html.page(title, body))
+    write_text(path, html.page(title, body))
     return path

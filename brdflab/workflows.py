@@ -49,6 +49,11 @@ def _image(x, what: str) -> np.ndarray:
     return a
 
 
+def _specs(plugins) -> list:
+    """The ``plugins`` argument as a list (inputs of the run: never an output)."""
+    return [] if plugins is None else [plugins] if isinstance(plugins, str | Path) else list(plugins)
+
+
 def _load_plugins(plugins) -> None:
     from brdflab.plugins import load_plugins
 
@@ -229,7 +234,8 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
            spp: Sequence[int] = (4, 16, 64), runs: int = 4, ref: str | Path | None = None, ref_spp: int | None = None,
            seed: int = 0, workers: int | None = None, resolution: tuple[int, int] | None = None,
            flip: bool = True, mis_weights: bool = True, output: str | Path | None = None,
-           plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None):
+           plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
+           force: bool = False):
     """Compare integrators on one scene: error against samples and time, with intervals (``brdflab report``).
 
     Without ``ref`` the reference is rendered by brdflab's ``direct_mis`` at ``ref_spp`` with its own seeds,
@@ -259,10 +265,21 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
         raise BrdflabError("integrators: give each integrator once")
     if not spp or min(spp) < 1 or runs < 1:
         raise BrdflabError("spp values and runs must be at least 1")
+    files: list[str] = []
+    if output is not None:
+        from brdflab.outputs import prepare_folder
+        from brdflab.report.variance import REPORT_PATTERNS
+
+        stem = Path(scene).stem
+        files = ["report.html", f"{stem}_reference.png", *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"]
+        prepare_folder(Path(output), files, [scene, *([ref] if ref else []), *_specs(plugins)], force)
     study = run_study(Path(scene), names, list(spp), Path(ref) if ref else None, ref_spp, workers, seed,
                       progress=progress, runs=runs, resolution=resolution, flip=flip, mis_weights=mis_weights)
     if output is not None:
+        from brdflab.outputs import record_outputs
+
         write_report(study, Path(output))
+        record_outputs(Path(output), files)
     return study
 
 
@@ -281,15 +298,17 @@ class PlotResult:
 def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0, times_cos: bool = False,
          views: Sequence[str] = ("polar", "lobe", "slice", "albedo", "sphere"), samples: int = 20_000,
          sphere_size: int = 128, sphere_spp: int = 16, workers: int | None = None, labels: Sequence[str] | None = None,
-         plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None) -> PlotResult:
+         plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
+         force: bool = False) -> PlotResult:
     """Draw one BSDF or several overlaid: polar slice, 3D lobe, θh×θd slice, albedo, lit spheres (``brdflab plot``).
 
     Parameters
     ----------
     bsdfs
         A BSDF object, a ``--bsdf`` text (``"roughconductor:alpha=0.1"``) or a list of either.
-    output
-        The folder for ``index.html`` and each view as PNG, SVG and CSV.
+    output, force
+        The folder for ``index.html`` and each view as PNG, SVG and CSV, checked before the work (never an input,
+        never a file brdflab did not write unless ``force``).
 
     Examples
     --------
@@ -299,8 +318,9 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
     >>> res.page.name
     'index.html'
     """
+    from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.viz import spec as bspec
-    from brdflab.viz.static import VIEWS, PlotOptions, write_plots
+    from brdflab.viz.static import VIEWS, PlotOptions, check_plot_work, plot_files, write_plots
 
     _load_plugins(plugins)
     if not (math.isfinite(theta) and 0 <= theta < 90):
@@ -320,13 +340,18 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
             names.append(getattr(item, "type_name", "") or type(item).__name__)
     opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos, views=tuple(views), samples=samples,
                        sphere_size=sphere_size, sphere_spp=sphere_spp, workers=workers)
+    files = plot_files(tuple(views), len(objs))
+    check_plot_work(opts, len(objs))
+    prepare_folder(Path(output), files, [p for p in _specs(plugins)], force)  # before the work
     page = write_plots(objs, list(labels or names), Path(output), opts, progress=progress)
+    record_outputs(Path(output), files)
     return PlotResult(Path(page), [str(v) for v in views])
 
 
 def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | None = None,
              thetas: Sequence[float] | None = None, params: dict | None = None, output: str | Path | None = None,
-             plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None):
+             plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
+             force: bool = False):
     """Run the validation battery (``brdflab validate``): chi-square, consistency, furnace, stability.
 
     Parameters
@@ -362,9 +387,16 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
                   "alphas": tuple(alphas or ALPHAS), "thetas": tuple(thetas or THETAS), "params": params}
     elif params or alphas or thetas:
         raise BrdflabError("params, alphas and thetas need bsdfs")
+    if output is not None:
+        from brdflab.outputs import prepare_folder
+        from brdflab.report.validation import VALIDATION_FILES
+
+        prepare_folder(Path(output), list(VALIDATION_FILES), _specs(plugins), force)  # before the work
     bat = run_battery(n=samples, progress=progress, **kwargs)
     if output is not None:
+        from brdflab.outputs import record_outputs
         from brdflab.report.validation import write_validation_report
 
         write_validation_report(bat, Path(output))
+        record_outputs(Path(output), list(VALIDATION_FILES))
     return bat

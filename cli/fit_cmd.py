@@ -28,6 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("-o", "--output", type=Path, help="folder for fit.html, fit.json and the slices "
                    "(default: fit-<stem>/ beside the measurement)")
+    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
+                   "write (never an input of the run)")
     add_effort_option(p)
     add_plugin_option(p)
     p.set_defaults(func=run)
@@ -37,18 +39,19 @@ def run(args: argparse.Namespace) -> int:
     """Fit and write the page."""
     from brdflab.bsdf.measured import read_merl
     from brdflab.fitting import fit, write_fit_page
-    from brdflab.outputs import check_outputs, output_folder
+    from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.plugins import bsdf_class
 
     load_plugins(args)
     bsdf_class(args.model)  # an unknown model fails before the work
     out = args.output or args.measured.parent / f"fit-{args.measured.stem}"
-    output_folder(out)
-    check_outputs([out / "fit.html", out / "fit.json", out / "fit_slices.png"], [args.measured])
+    files = ["fit.html", "fit.json", "fit_slices.png"]
+    prepare_folder(out, files, [args.measured, *args.plugin], args.force)  # before the work
     table = read_merl(args.measured)
     stride = {"quick": (4, 6, 12), "full": (1, 2, 3)}.get(args.effort or "normal", (2, 3, 6))
     res = fit(table, args.model, args.loss, fixed=parse_params(args.fix), stride=stride)
     page = write_fit_page(out, table, res, title=f"brdflab fit — {args.measured.name} as {args.model}")
+    record_outputs(out, files)
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
     else:
