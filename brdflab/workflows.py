@@ -235,7 +235,7 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
            seed: int = 0, workers: int | None = None, resolution: tuple[int, int] | None = None,
            flip: bool = True, mis_weights: bool = True, output: str | Path | None = None,
            plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-           force: bool = False):
+           force: bool = False, cluster=None):
     """Compare integrators on one scene: error against samples and time, with intervals (``brdflab report``).
 
     Without ``ref`` the reference is rendered by brdflab's ``direct_mis`` at ``ref_spp`` with its own seeds,
@@ -274,7 +274,8 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
         files = ["report.html", f"{stem}_reference.png", *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"]
         prepare_folder(Path(output), files, [scene, *([ref] if ref else []), *_specs(plugins)], force)
     study = run_study(Path(scene), names, list(spp), Path(ref) if ref else None, ref_spp, workers, seed,
-                      progress=progress, runs=runs, resolution=resolution, flip=flip, mis_weights=mis_weights)
+                      progress=progress, runs=runs, resolution=resolution, flip=flip, mis_weights=mis_weights,
+                      cluster=cluster)
     if output is not None:
         from brdflab.outputs import record_outputs
 
@@ -336,8 +337,15 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
             objs.append(bspec.build(s))
             names.append(s.label)
         else:
-            objs.append(item)
-            names.append(getattr(item, "type_name", "") or type(item).__name__)
+            from brdflab.plugins import is_builtin
+            from brdflab.validate.guard import SceneCheckedBSDF
+
+            name = getattr(item, "type_name", "") or type(item).__name__
+            # a user's object is checked on every call, as the command checks plugins: NaN is an error, not f = 0
+            wrap = not isinstance(item, SceneCheckedBSDF) and not (is_builtin(name) and type(item).__module__
+                                                                   .startswith("brdflab.bsdf."))
+            objs.append(SceneCheckedBSDF(item) if wrap else item)
+            names.append(name)
     opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos, views=tuple(views), samples=samples,
                        sphere_size=sphere_size, sphere_spp=sphere_spp, workers=workers)
     files = plot_files(tuple(views), len(objs))
@@ -351,7 +359,7 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
 def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | None = None,
              thetas: Sequence[float] | None = None, params: dict | None = None, output: str | Path | None = None,
              plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-             force: bool = False):
+             force: bool = False, cluster=None):
     """Run the validation battery (``brdflab validate``): chi-square, consistency, furnace, stability.
 
     Parameters
@@ -361,8 +369,10 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
         or BSDF names, instances or classes (a plugin's): the whole battery on those only.
     samples
         Samples per chi-square test.
-    output
-        A folder for the HTML report.
+    output, force
+        A folder for the HTML report, checked before the work (``force`` replaces files brdflab did not write).
+    cluster
+        A :class:`brdflab.cluster.Cluster` to run the chi-square tests and consistency checks on.
 
     Returns
     -------
@@ -392,7 +402,7 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
         from brdflab.report.validation import VALIDATION_FILES
 
         prepare_folder(Path(output), list(VALIDATION_FILES), _specs(plugins), force)  # before the work
-    bat = run_battery(n=samples, progress=progress, **kwargs)
+    bat = run_battery(n=samples, progress=progress, cluster=cluster, **kwargs)
     if output is not None:
         from brdflab.outputs import record_outputs
         from brdflab.report.validation import write_validation_report

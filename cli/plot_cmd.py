@@ -49,9 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the BSDFs and write the views."""
     from brdflab.cli.options import load_plugins
-    from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.viz import spec as bspec
-    from brdflab.viz.static import VIEWS, PlotOptions, check_plot_work, plot_files, write_plots
+    from brdflab.viz.static import VIEWS
+    from brdflab.workflows import plot
 
     load_plugins(args)
     thetas = args.theta or [45.0]
@@ -69,14 +69,9 @@ def run(args: argparse.Namespace) -> int:
         raise BrdflabError(f"--views: unknown view '{(bad or [''])[0][:40]}'; valid: {', '.join(VIEWS)}")
     specs = bspec.resolve(args.bsdf or ["roughconductor"], args.alpha, args.param)
     bsdfs = [bspec.build(s) for s in specs]
-    labels = [s.label for s in specs]
     out = args.output or Path("plots") / specs[0].name
-    opts = PlotOptions(theta=theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
-                       sphere_size=args.size, sphere_spp=args.spp, workers=args.workers)
-    names = plot_files(chosen, len(bsdfs))
-    check_plot_work(opts, len(bsdfs))
-    prepare_folder(out, names, [*(getattr(args, "plugin", None) or [])], args.force)  # before the work
-    path = write_plots(bsdfs, labels, out, opts, progress=lambda m: print("  " + m))
-    record_outputs(out, names)
-    print(f"wrote {', '.join(chosen)} for {len(bsdfs)} BSDF(s): {path}")
+    res = plot(bsdfs, out, theta=theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
+               sphere_size=args.size, sphere_spp=args.spp, workers=args.workers, labels=[s.label for s in specs],
+               plugins=args.plugin, progress=lambda m: print("  " + m), force=args.force)
+    print(f"wrote {', '.join(chosen)} for {len(bsdfs)} BSDF(s): {res.page}")
     return 0

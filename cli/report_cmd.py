@@ -8,7 +8,7 @@ from pathlib import Path
 
 from brdflab.cli.argtypes import count, seed
 from brdflab.errors import BrdflabError, clean
-from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_plugin_option, load_plugins
@@ -68,10 +68,9 @@ def _resolution(text: str) -> tuple[int, int]:
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
     from brdflab.report.index import write_index
-    from brdflab.report.variance import REPORT_PATTERNS, run_study
-    from brdflab.report.variance_page import write_report
     from brdflab.report.variance_summary import summary
     from brdflab.stats.jobs import validate_specs
+    from brdflab.workflows import report
 
     load_plugins(args)
     integrators = validate_specs(args.integrators.split(","))
@@ -83,18 +82,12 @@ def run(args: argparse.Namespace) -> int:
     resolution = _resolution(args.resolution) if args.resolution else None
     out = args.output or DEFAULT_REPORTS / args.scene.stem
     parent_created = output_folder(out.parent) if args.output else False
-    stem = args.scene.stem
-    slug = [n.replace(":", "_") for n in integrators]
-    written = ["report.html", f"{stem}_reference.png"]
-    written += [f"{stem}_{n}_{s}spp{ext}" for n in slug for s in spp for ext in (".exr", ".png")]
-    prepare_folder(out, [*written, *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"],
-                   [args.scene, *([args.ref] if args.ref else []), *args.plugin], args.force)
     with cluster_from_args(args) as cluster:
-        study = run_study(args.scene, integrators, spp, args.ref, args.ref_spp, args.workers, args.seed,
-                          progress=lambda msg: print(msg, file=sys.stderr), runs=args.runs, resolution=resolution,
-                          flip=not args.no_flip, mis_weights=not args.no_mis_weights, cluster=cluster)
-    path = write_report(study, out)
-    record_outputs(out, [*written, *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"])
+        study = report(args.scene, integrators, spp=spp, runs=args.runs, ref=args.ref, ref_spp=args.ref_spp,
+                       seed=args.seed, workers=args.workers, resolution=resolution, flip=not args.no_flip,
+                       mis_weights=not args.no_mis_weights, output=out, force=args.force, plugins=args.plugin,
+                       progress=lambda msg: print(msg, file=sys.stderr), cluster=cluster)
+    path = out / "report.html"
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from brdflab.cli.argtypes import count
-from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
+from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_bsdf_options, add_effort_option, bsdf_spec_from_args, load_plugins
@@ -30,35 +30,30 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the battery and write the report."""
+    """Run the battery (:func:`brdflab.workflows.validate`) and write the report."""
     from brdflab.errors import BrdflabError
     from brdflab.report.index import write_index
-    from brdflab.report.validation import VALIDATION_FILES, write_validation_report
-    from brdflab.validate.battery import ALPHAS, THETAS, run_battery
+    from brdflab.validate.failures import grouped_failures
+    from brdflab.workflows import validate
 
     out = args.output or DEFAULT_REPORTS / "validation"
     parent_created = output_folder(out.parent) if args.output else False
-    prepare_folder(out, list(VALIDATION_FILES), getattr(args, "plugin", None) or [], args.force)
     load_plugins(args)
+    bsdfs, params = None, None
     if args.bsdf:  # the whole battery on these BSDFs only (no warps)
         specs = [bsdf_spec_from_args(args, name) for name in args.bsdf]
         if len(specs) > 1 and args.param:
             raise BrdflabError("--param applies to a single --bsdf")
-        kwargs = {"bsdfs": [s[0] for s in specs], "warp_names": [], "alphas": tuple(args.alpha or ALPHAS),
-                  "thetas": tuple(args.theta or THETAS), "params": specs[0][1]}
-    else:
-        if args.param or args.alpha or args.theta:
-            raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
-        kwargs = {}
+        bsdfs, params = [s[0] for s in specs], specs[0][1]
+    elif args.param or args.alpha or args.theta:
+        raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
     with cluster_from_args(args) as cluster:
-        bat = run_battery(n=args.samples, progress=print, cluster=cluster, **kwargs)
-    path = write_validation_report(bat, out)
-    record_outputs(out, list(VALIDATION_FILES))
+        bat = validate(bsdfs, samples=args.samples, alphas=args.alpha, thetas=args.theta, params=params, output=out,
+                       force=args.force, plugins=args.plugin, progress=print, cluster=cluster)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
-    from brdflab.validate.failures import grouped_failures
-
+    path = out / "index.html"
     grouped = [] if bat.passed else grouped_failures(bat)
     print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES, {len(grouped)} distinct (one line per "
            "cause below)") + f"; report: {path}")
