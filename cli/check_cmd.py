@@ -9,7 +9,7 @@ from pathlib import Path
 from brdflab.cli.argtypes import count, number, seed
 
 from .cluster_options import add_cluster_options, cluster_from_args
-from .options import add_plugin_option
+from .options import add_force_option, add_plugin_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,8 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per pixel of the auxiliary renders that say, for a biased render, which materials, "
                    "emitters and sampling strategy the flagged regions follow (default 8; 0: off)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
-    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
-                   "write (never an input of the run)")
+    add_force_option(p, "files in the output folder")
     add_plugin_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)

@@ -17,7 +17,7 @@ from brdflab.cli.argtypes import count
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder, prepare_folder, record_outputs
 
 from .cluster_options import add_cluster_options, cluster_from_args
-from .options import add_bsdf_options, add_effort_option, bsdf_spec_from_args, load_plugins
+from .options import add_bsdf_options, add_effort_option, add_force_option, bsdf_spec_from_args, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,8 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per test when brdflab samples, at least 1000 (default 100000)")
     p.add_argument("--full", action="store_true", help="also consistency, furnace and stability checks")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/chi2_<name>)")
-    p.add_argument("--force", action="store_true", help="replace files in the report folder that brdflab did not "
-                   "write")
+    add_force_option(p, "files in the report folder")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run, parser=p)

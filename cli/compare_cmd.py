@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from brdflab.cli.options import add_force_option
 from brdflab.errors import BrdflabError, clean
 from brdflab.outputs import json_text, prepare_files
 
@@ -24,7 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--crop", metavar="X,Y,W,H", help="measure only this region (pixels; origin top left)")
     p.add_argument("--no-flip", action="store_true", help="skip HDR-FLIP")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
-    p.add_argument("--force", action="store_true", help="replace a --heatmap/--signed file brdflab did not write")
+    add_force_option(p, "a --heatmap/--signed file")
     p.set_defaults(func=run)
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from brdflab.errors import BrdflabError
 
-from .options import add_effort_option, add_plugin_option, load_plugins, parse_params
+from .options import add_effort_option, add_force_option, add_plugin_option, load_plugins, parse_params
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,8 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("-o", "--output", type=Path, help="folder for fit.html, fit.json and the slices "
                    "(default: fit-<stem>/ beside the measurement)")
-    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
-                   "write (never an input of the run)")
+    add_force_option(p, "files in the output folder")
     add_effort_option(p)
     add_plugin_option(p)
     p.set_defaults(func=run)

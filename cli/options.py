@@ -21,6 +21,12 @@ def add_plugin_option(p: argparse.ArgumentParser) -> None:
                    "type_name; scenes and --bsdf can then name them (repeatable)")
 
 
+def add_force_option(p: argparse.ArgumentParser, what: str = "files in the output folder") -> None:
+    """``--force``: replace outputs brdflab did not write (:mod:`brdflab.outputs`; never an input of the run)."""
+    p.add_argument("--force", action="store_true", help=f"replace {what} that brdflab did not write (never an "
+                   "input of the run)")
+
+
 def add_effort_option(p: argparse.ArgumentParser) -> None:
     """``--effort quick|normal|full``: the quadrature budget (:mod:`brdflab.effort`)."""
     p.add_argument("--effort", choices=("quick", "normal", "full"), default=None,

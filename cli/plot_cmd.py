@@ -12,7 +12,7 @@ from brdflab.errors import BrdflabError
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``plot`` sub-command."""
     from brdflab.cli.argtypes import count, number
-    from brdflab.cli.options import add_bsdf_options, add_effort_option
+    from brdflab.cli.options import add_bsdf_options, add_effort_option, add_force_option
     from brdflab.viz.static import VIEWS
 
     p = sub.add_parser(
@@ -40,8 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--spp", type=count(1, 1 << 20), default=16, help="lit-sphere samples per pixel (default 16)")
     p.add_argument("--workers", type=count(1, 256), help="render workers (default: all cores)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default plots/<first bsdf>)")
-    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
-                   "write")
+    add_force_option(p, "files in the output folder")
     add_effort_option(p)
     p.set_defaults(func=run)
 

@@ -15,7 +15,7 @@ from brdflab.cli.progress import Progress
 from brdflab.cli.signals import GracefulStop, exit_status
 from brdflab.errors import MESSAGE_CHARS, BrdflabError, Interrupted, clean
 
-from .options import add_plugin_option, load_plugins
+from .options import add_force_option, add_plugin_option, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,8 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=seconds, metavar="SECONDS",
                    help="render as many full passes as fit in this time (a number > 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
-    p.add_argument("--force", action="store_true", help="replace an existing EXR/PNG that brdflab did not write "
-                   "(never an input of the run)")
+    add_force_option(p, "an existing EXR/PNG")
     add_plugin_option(p)
     add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)

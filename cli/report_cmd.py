@@ -11,7 +11,7 @@ from brdflab.errors import BrdflabError, clean
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
 from .cluster_options import add_cluster_options, cluster_from_args
-from .options import add_plugin_option, load_plugins
+from .options import add_force_option, add_plugin_option, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,8 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
     p.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^64) (default 0)")
     p.add_argument("-o", "--output", type=Path, help="output folder (default: reports/<stem>/)")
-    p.add_argument("--force", action="store_true", help="replace files in the output folder that brdflab did not "
-                   "write (never an input of the run)")
+    add_force_option(p, "files in the output folder")
     add_plugin_option(p)
     add_cluster_options(p, scene_transfer=True)
     p.set_defaults(func=run)

@@ -10,7 +10,7 @@ from brdflab.cli.argtypes import count
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
 from .cluster_options import add_cluster_options, cluster_from_args
-from .options import add_bsdf_options, add_effort_option, bsdf_spec_from_args, load_plugins
+from .options import add_bsdf_options, add_effort_option, add_force_option, bsdf_spec_from_args, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,8 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=count(1000), default=200_000,
                    help="samples per chi-square test, at least 1000 (default 200000)")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
-    p.add_argument("--force", action="store_true", help="replace files in the report folder that brdflab did not "
-                   "write")
+    add_force_option(p, "files in the report folder")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)
