@@ -32,16 +32,15 @@ spp images as checkpoints (:func:`render` ``on_pass``), each with its elapsed ti
 from __future__ import annotations
 
 import itertools
-import sys
 import threading
 import time
-import types
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from brdflab.alloc import tune_allocator
+from brdflab.callable_modules import make_callable
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
 from brdflab.limits import WORKER_BYTES, check_memory, check_spp, check_work
@@ -319,13 +318,4 @@ def render_image(scene, spp: int | None = None, seed: int | None = None, workers
     return (image, stats) if return_stats else image
 
 
-class _CallableModule(types.ModuleType):
-    """``brdflab.render`` is both this module and the public function :func:`brdflab.api.render`: importing a
-    submodule binds its name in the package, so the module itself forwards calls to :func:`render_image` (what
-    the API function does; no import of :mod:`brdflab.api` here, which sits above this module)."""
-
-    def __call__(self, *args, **kwargs):
-        return render_image(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
+make_callable(__name__, "brdflab.render:render_image")  # brdflab.render is also bl.render

@@ -20,23 +20,6 @@ import numpy as np
 from brdflab.errors import BrdflabError
 
 
-def make_package_callable(package: str, function: str) -> None:
-    """Let ``brdflab.<package>`` be called as :func:`brdflab.workflows.<function>`.
-
-    ``brdflab.validate`` and ``brdflab.report`` are packages *and* the public functions ``bl.validate`` and
-    ``bl.report``; whichever one the attribute holds (Python sets a package attribute when the package is first
-    imported), a call reaches the function. Uses module ``__class__`` assignment (Python ≥ 3.5).
-    """
-    import sys
-    import types
-
-    class _Callable(types.ModuleType):
-        def __call__(self, *args, **kwargs):
-            return globals()[function](*args, **kwargs)
-
-    _Callable.__call__.__doc__ = f"Call :func:`brdflab.workflows.{function}`."
-    sys.modules[package].__class__ = _Callable
-
 def _image(x, what: str) -> np.ndarray:
     """An (H, W, 3) float array from an array or an EXR path."""
     if isinstance(x, str | Path):

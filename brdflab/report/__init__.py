@@ -4,6 +4,6 @@
 package and the function share the name ``report`` on :mod:`brdflab`, so the package forwards a call).
 """
 
-from brdflab.workflows import make_package_callable
+from brdflab.callable_modules import make_callable
 
-make_package_callable(__name__, "report")
+make_callable(__name__, "brdflab.workflows:report")

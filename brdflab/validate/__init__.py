@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from brdflab.callable_modules import make_callable
 from brdflab.validate import chi2 as _c2
 from brdflab.validate.battery import Battery, BSDFEntry, run_battery
 from brdflab.validate.chi2 import SIGNIFICANCE, Chi2Result
@@ -40,7 +41,6 @@ from brdflab.validate.furnace import AlbedoPoint, FurnaceResult, furnace_test
 from brdflab.validate.guard import CheckedBSDF, PluginFault
 from brdflab.validate.seeding import bsdf_identity, test_seed
 from brdflab.validate.stability import StabilityResult, StabilityRow, stability_test
-from brdflab.workflows import make_package_callable
 
 
 def default_seed(*parts: Any) -> int:
@@ -168,4 +168,4 @@ __all__ = ["AlbedoPoint", "BSDFEntry", "Battery", "CheckedBSDF", "Chi2Result", "
            "warp_chi2_test", "emitter_checks", "estimator_agreement"]
 
 
-make_package_callable(__name__, "validate")
+make_callable(__name__, "brdflab.workflows:validate")
