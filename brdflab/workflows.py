@@ -320,15 +320,13 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
             objs.append(bspec.build(s))
             names.append(s.label)
         else:
-            from brdflab.plugins import is_builtin
-            from brdflab.validate.guard import SceneCheckedBSDF
+            from brdflab.builtin_types import is_builtin_class
+            from brdflab.validate.guard import CheckedBSDF, SceneCheckedBSDF
 
-            name = getattr(item, "type_name", "") or type(item).__name__
             # a user's object is checked on every call, as the command checks plugins: NaN is an error, not f = 0
-            wrap = not isinstance(item, SceneCheckedBSDF) and not (is_builtin(name) and type(item).__module__
-                                                                   .startswith("brdflab.bsdf."))
+            wrap = not isinstance(item, CheckedBSDF) and not is_builtin_class(type(item))
             objs.append(SceneCheckedBSDF(item) if wrap else item)
-            names.append(name)
+            names.append(getattr(item, "type_name", "") or type(item).__name__)
     opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos, views=tuple(views), samples=samples,
                        sphere_size=sphere_size, sphere_spp=sphere_spp, workers=workers)
     files = plot_files(tuple(views), len(objs))

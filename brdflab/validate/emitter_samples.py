@@ -71,7 +71,6 @@ from brdflab.validate.emitter_sample_checks import (  # noqa: F401 (re-exported:
     _pearson,
     _radiance_check,
     _self_consistency_check,
-    _vertex_facing,
     nearest_triangle,
 )
 from brdflab.validate.emitters import shading_normals

@@ -101,11 +101,6 @@ def allowed_bsdfs() -> dict[str, type]:
     return out
 
 
-def bsdf_choices() -> list[str]:
-    """Every BSDF type the explorer offers, built-ins first."""
-    return list(allowed_bsdfs())
-
-
 def _one_line(exc: BaseException) -> str:
     lines = str(exc).strip().splitlines()
     text = f"{type(exc).__name__}: {lines[0] if lines else ''}"
