@@ -164,3 +164,22 @@ def test_measured_through_the_commands(tmp_path, merl_file, capsys):
                  str(tmp_path / "p"), "--effort", "quick", "--samples", "4000"]) == 0
     assert main(["chi2", "--bsdf", "measured", "--param", f"filename={tmp_path / 'missing.binary'}"]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_a_measured_table_is_an_input_no_output_may_replace(tmp_path, merl_file, capsys):
+    """The table is found like meshes (the scene's folder first) and counted among the run's inputs."""
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    table = tmp_path / "table.exr"  # a table whose name a render output could take
+    shutil.copy(merl_file, table)
+    text = (root / CBOX).read_text().replace('value="meshes/', f'value="{root / "scenes/cbox/meshes"}/')
+    i = text.rindex('<bsdf type="diffuse">')
+    j = text.index("</bsdf>", i) + len("</bsdf>")
+    scene = tmp_path / "m.xml"
+    scene.write_text(text[:i] + '<bsdf type="measured"><string name="filename" value="table.exr"/></bsdf>' + text[j:])
+    assert table in [Path(p) for p in bl.load_scene(scene).inputs]
+    before = table.read_bytes()
+    assert main(["render", str(scene), "--spp", "1", "-o", str(table), "--force", "--quiet"]) == 2
+    assert "is an input of this run" in capsys.readouterr().err and table.read_bytes() == before

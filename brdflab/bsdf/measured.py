@@ -153,6 +153,8 @@ class Measured(BSDF):
         if not np.all(np.isfinite(t)) or np.any(t < 0):
             raise BrdflabError("measured: the table has negative or non-finite values")
         self.filename = str(filename)
+        #: Files the material was read from (the loader counts them among the run's inputs).
+        self.input_files: tuple[Path, ...] = (Path(filename),) if filename else ()
         self.table = t
         self._padded = self._pad(t)
         self._build_sampling()
@@ -160,16 +162,17 @@ class Measured(BSDF):
     @classmethod
     def from_properties(cls, props: PropertyList) -> Measured:
         """Build from ``<bsdf type="measured"><string name="filename" value="…"/></bsdf>``."""
+        from brdflab.scene.loader import resolve_path
+
         props.check_known(cls.KNOWN)
         name = props.get_string("filename")
-        path = Path(name)
-        if not path.is_absolute() and props.file:
-            near = Path(props.file).parent / name
-            path = near if near.exists() or not path.exists() else path
+        # found as the loader finds meshes and maps: the scene's folder, then the working directory
+        path = resolve_path(Path(props.file).parent if props.file else Path.cwd(), name) or Path(name)
         try:
-            return cls(str(path))
+            bsdf = cls(str(path))
         except BrdflabError as exc:
             raise props.error("filename", f"{exc.message} ({path})") from None
+        return bsdf
 
     # -- evaluation -----------------------------------------------------------------------------------
     def _lookup(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:

@@ -173,6 +173,7 @@ def load_scene(path: str | Path, integrator_override: str | None = None, *, inte
     spp, seed = _read_sampler(specs.sampler, spp, seed)
     emitters, environment = _build_scene_emitters(specs.emitters, resolve)
     bsdfs, meshes, area_emitters, obj_seconds = _load_meshes(specs.meshes, resolve, scene_dir)
+    inputs += [Path(f) for b in bsdfs for f in getattr(b, "input_files", ())]  # a measured BSDF's table
     t0 = time.perf_counter()
     geometry = Geometry([m.mesh for m in meshes])
     geometry_seconds = time.perf_counter() - t0
