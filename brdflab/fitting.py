@@ -149,10 +149,10 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     wi, wo, f_meas, cc = data_nodes(table, stride)
     lo, hi, x0, layout = [], [], [], []
     for k in free:
-        b = _bounds(k, kinds[k], np.mean(defaults.get(k, 1.0)) if defaults.get(k) is not None else 1.0)
+        default = defaults.get(k)
+        b = _bounds(k, kinds[k], 1.0 if default is None else float(np.mean(default)))
         width = 3 if kinds[k] == "color" else 1
-        d = np.broadcast_to(np.asarray(defaults.get(k, 0.5) if defaults.get(k) is not None else 0.5, float),
-                            (width,))
+        d = np.broadcast_to(np.asarray(0.5 if default is None else default, float), (width,))
         layout.append((k, width))
         lo += [b[0]] * width
         hi += [b[1]] * width
