@@ -341,7 +341,7 @@ def _pdf_check(s: EmitterSamples, light: _Light, owner, tri, ns, on) -> Check:
         ps = p_sel[cmp_]
         tri_a = light.tri_area[tri[area][cmp_]]
         ea = light.area[o[cmp_]]
-        kk = np.array([np.count_nonzero(light.owner == j) for j in range(len(light.emitters))])[o[cmp_]]
+        kk = np.bincount(light.owner, minlength=len(light.emitters))[o[cmp_]]  # triangles per emitter
         one = np.ones_like(c)
         base = [("the pdf is in area measure but flagged as solid angle (missing r²/|cos θ_y|: p_ω = p_A·r²/|cos θ_y|)",
                  np.where(sol, c / rr2, np.nan)),
