@@ -174,6 +174,26 @@ def _mu_axis(ax, view: View) -> None:
         ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: "1" if y >= 1 else f"1−{1 - y:.1e}"))
 
 
+def bin_maps(fig, axes, obs: np.ndarray, exp: np.ndarray, theta_edges: np.ndarray, titles: tuple[str, str]) -> None:
+    """Observed and expected values of a chi-square test on its own bins (θ strips × φ bins, both pilot
+    quantiles) on ``axes[0]`` and ``axes[1]`` with one colour scale and one colour bar."""
+    vmax = max(float(np.max(obs)), float(np.max(exp)), 1.0)
+    n_t = obs.shape[0]
+    edges = np.degrees(theta_edges)
+    ticks = np.arange(0, n_t + 1, max(1, n_t // 5))
+    for ax, data, title in zip(axes[:2], (obs, exp), titles, strict=True):
+        im = ax.imshow(data, origin="lower", aspect="auto", extent=(0, 360, 0, n_t), cmap="viridis", vmin=0,
+                       vmax=vmax, interpolation="nearest")
+        ax.set_yticks(ticks)
+        ax.set_yticklabels([f"{edges[t]:.3g}" for t in ticks], fontsize=7)
+        ax.set_xticks([])  # the test's φ bins are quantiles of the pilot inside each θ strip, not degrees
+        ax.tick_params(labelsize=7)
+        ax.set_xlabel("φ bins (pilot quantiles within each θ strip)", fontsize=8)
+        ax.set_ylabel("θ bin edges [°] (pilot quantiles)", fontsize=8)
+        ax.set_title(title, fontsize=9)
+    fig.colorbar(im, ax=list(axes[:2]), fraction=0.04, pad=0.01).ax.tick_params(labelsize=7)
+
+
 def figure(result: c2.Chi2Result, view: View, negative: bool = False):
     """The detailed figure: test histograms, (φ′, cos θ′) observed | expected, residual map, points."""
     import matplotlib
@@ -196,21 +216,8 @@ def figure(result: c2.Chi2Result, view: View, negative: bool = False):
         fig.subplots_adjust(left=0.06, right=0.97, top=0.92, bottom=0.07, wspace=0.32, hspace=0.3)
         top, bottom = list(axes[0]), list(axes[1])
     if top:
-        obs, exp, edges = result.observed, result.expected, np.degrees(result.theta_edges)
-        vmax = max(float(obs.max()), float(exp.max()), 1.0)
-        n_t = obs.shape[0]
-        for ax, data, title in ((top[0], obs, "observed"), (top[1], exp, "expected")):
-            im = ax.imshow(data, origin="lower", aspect="auto", extent=(0, 360, 0, n_t), cmap="viridis", vmin=0,
-                           vmax=vmax, interpolation="nearest")
-            ticks = np.arange(0, n_t + 1, max(1, n_t // 5))
-            ax.set_yticks(ticks)
-            ax.set_yticklabels([f"{edges[t]:.3g}" for t in ticks], fontsize=7)
-            ax.set_xticks([])  # the test's φ bins are quantiles of the pilot inside each θ strip, not degrees
-            ax.tick_params(labelsize=7)
-            ax.set_xlabel("φ bins (pilot quantiles within each θ strip)", fontsize=8)
-            ax.set_ylabel("θ bin edges [°] (pilot quantiles)", fontsize=8)
-            ax.set_title(f"test bins: {title} counts", fontsize=9)
-        fig.colorbar(im, ax=top[:2], fraction=0.04, pad=0.01).ax.tick_params(labelsize=7)
+        bin_maps(fig, top, result.observed, result.expected, result.theta_edges,
+                 ("test bins: observed counts", "test bins: expected counts"))
         ax = top[2]
         ax.scatter(view.points[:, 0], view.points[:, 1], s=1.2, alpha=0.5, color="#333", linewidths=0)
         ax.set_xlim(view.x_edges[0], view.x_edges[-1])

@@ -25,20 +25,10 @@ def _panel(fig, axes, obs: np.ndarray, exp: np.ndarray, theta_edges: np.ndarray,
     import matplotlib
     from matplotlib.colors import TwoSlopeNorm
 
-    vmax = max(float(np.max(obs)), float(np.max(exp)), 1.0)
+    from brdflab.report.chi2_views import bin_maps
+
     n_t = obs.shape[0]
-    edges = np.degrees(theta_edges)
-    for ax, data, title in ((axes[0], obs, "observed"), (axes[1], exp, "expected")):
-        im = ax.imshow(data, origin="lower", aspect="auto", extent=(0, 360, 0, n_t), cmap="viridis", vmin=0,
-                       vmax=vmax, interpolation="nearest")
-        ticks = np.arange(0, n_t + 1, max(1, n_t // 5))
-        ax.set_yticks(ticks)
-        ax.set_yticklabels([f"{edges[t]:.3g}" for t in ticks], fontsize=7)
-        ax.set_xticks([])
-        ax.set_xlabel("φ bins (pilot quantiles within each θ strip)", fontsize=8)
-        ax.set_ylabel("θ bin edges [°]", fontsize=8)
-        ax.set_title(f"{label}: {title}", fontsize=9)
-    fig.colorbar(im, ax=list(axes[:2]), fraction=0.04, pad=0.01).ax.tick_params(labelsize=7)
+    bin_maps(fig, axes, obs, exp, theta_edges, (f"{label}: observed", f"{label}: expected"))
     with np.errstate(divide="ignore", invalid="ignore"):
         res = np.where(exp > 0, (obs - exp) / np.sqrt(np.where(exp > 0, exp, 1.0)), np.nan)
     finite = np.abs(res[np.isfinite(res)])
