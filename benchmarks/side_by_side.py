@@ -17,6 +17,10 @@ Usage (with brdflab's own environment active)::
   compared with Mitsuba's render call alone (``--no-whole`` skips it: render-only comparisons in a
   quarter less time on a loaded machine). The course scenes (``../shared/scenes``, skipped when
   absent) are among the cases.
+* ``--engines numba,numpy`` (default: both) times brdflab with each engine (``BRDFLAB_ENGINE``, see
+  :mod:`brdflab.kernels`), alternately with the rest; the whole-process figures of the compiled engine include
+  numba's import and loading its cached kernels (the first run after an install also compiles them: run the
+  script once, or ``brdflab render`` once, before timing).
 * Prints a table of median samples/s and the ratio brdflab / Mitsuba per variant — the headline figure —
   and writes ``benchmarks/results/side_by_side.json`` plus a Markdown table for the README.
 """
@@ -123,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--integrators", default="direct_ems,direct_mats,direct_mis")
     ap.add_argument("--json", type=Path, default=HERE / "results" / "side_by_side.json")
     ap.add_argument("--no-whole", action="store_true", help="skip the whole-process brdflab runs")
+    ap.add_argument("--engines", default="numba,numpy", help="brdflab engines to time (BRDFLAB_ENGINE)")
     a = ap.parse_args(argv)
+    engines = [e for e in a.engines.split(",") if e]
     ensure_mitsuba()
     variants = [v for v in a.variants.split(",") if v]
     llvm = find_llvm()
@@ -138,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         for integ in CASES[case][1]:
             if integ in a.integrators.split(","):
                 jobs.append((case, integ, *scene_paths(case, integ)))
-    players = ["brdflab"] if a.no_whole else ["brdflab", "brdflab_whole"]
+    players = [f"brdflab@{e}" for e in engines] + ([] if a.no_whole else [f"brdflab_whole@{e}" for e in engines])
     runs: dict[tuple[str, str], dict[str, list[dict]]] = {(c, i): {p: [] for p in players} | {v: [] for v in variants}
                                                           for c, i, _, _ in jobs}
     pixels: dict[tuple[str, str], int] = {}
@@ -146,10 +152,12 @@ def main(argv: list[str] | None = None) -> int:
         for case, integ, scene, xml in jobs:
             order = [*players, *variants] if r % 2 == 0 else [*variants, *players[::-1]]
             for who in order:
-                if who == "brdflab":
+                if "@" in who:
+                    os.environ["BRDFLAB_ENGINE"] = who.split("@")[1]  # inherited by the brdflab processes
+                if who.startswith("brdflab@"):
                     rec = run_brdflab(scene, integ, a.spp, case)
                     pixels[(case, integ)] = rec["width"] * rec["height"]
-                elif who == "brdflab_whole":
+                elif who.startswith("brdflab_whole@"):
                     if (case, integ) not in pixels:
                         from brdflab.scene.loader import load_scene
 
@@ -166,22 +174,26 @@ def main(argv: list[str] | None = None) -> int:
         row = {"case": case, "integrator": integ, "runs": by}
         med = {w: statistics.median(x["samples_per_s"] for x in recs) for w, recs in by.items()}
         row["median_samples_per_s"] = med
-        row["ratio"] = {v: med["brdflab"] / med[v] for v in variants}
-        row["whole_ratio"] = {v: med["brdflab_whole"] / med[v] for v in variants} if not a.no_whole else {}
-        row["brdflab_embree_share"] = statistics.median(x["embree_share"] for x in by["brdflab"])
+        row["ratio"] = {f"{p} vs {v}": med[p] / med[v] for p in players for v in variants}
+        row["engine_speedup"] = {p: med[p] / med[p.replace("@numba", "@numpy")] for p in players
+                                 if p.endswith("@numba") and p.replace("@numba", "@numpy") in med}
+        row["brdflab_embree_share"] = {p: statistics.median(x["embree_share"] for x in by[p])
+                                       for p in players if p.startswith("brdflab@")}
         rows.append(row)
-    whole = not a.no_whole
-    head = "| case | integrator | brdflab | " + ("brdflab whole process | " if whole else "") + \
-        " | ".join(f"Mitsuba {v}" for v in variants) + " | " + " | ".join(f"ratio vs {v}" for v in variants) + \
-        "".join(f" | whole process vs {v}" for v in variants if whole) + " |"
+    label = {p: p.replace("brdflab_whole@", "whole ").replace("brdflab@", "render ") for p in players}
+    ratios = [(p, v) for p in players for v in variants if p.startswith("brdflab@") or v == "scalar_rgb"]
+    head = ("| case | integrator | " + " | ".join(label[p] for p in players) + " | " +
+            " | ".join(f"Mitsuba {v}" for v in variants) + " | " +
+            " | ".join(f"{label[p]} vs {v}" for p, v in ratios) +
+            "".join(f" | {label[p]}: numba / numpy" for p in players if p.endswith("@numba")
+                    and p.replace("@numba", "@numpy") in players) + " |")
     print("\n" + head)
-    print("|" + "---|" * (3 + whole + (2 + whole) * len(variants)))
+    print("|" + "---|" * (head.count("|") - 1))
     for row in rows:
         med = row["median_samples_per_s"]
-        cells = [f"{med['brdflab'] / 1e6:.2f} M"] + ([f"{med['brdflab_whole'] / 1e6:.2f} M"] if whole else [])
-        cells += [f"{med[v] / 1e6:.2f} M" for v in variants]
-        cells += [f"**{row['ratio'][v]:.2f}×**" for v in variants]
-        cells += [f"**{row['whole_ratio'][v]:.2f}×**" for v in variants if whole]
+        cells = [f"{med[p] / 1e6:.2f} M" for p in players] + [f"{med[v] / 1e6:.2f} M" for v in variants]
+        cells += [f"**{row['ratio'][f'{p} vs {v}']:.2f}×**" for p, v in ratios]
+        cells += [f"{x:.2f}×" for x in row["engine_speedup"].values()]
         print(f"| {row['case']} | {row['integrator']} | " + " | ".join(cells) + " |")
     print(f"\nsamples/s, median of {a.rounds} alternating rounds, {a.spp} spp, {os.cpu_count()} cores, "
           f"{time.strftime('%Y-%m-%d')}")

@@ -93,6 +93,7 @@ from brdflab.cluster_tasks import (  # noqa: F401 (re-exported: the module's for
     user_bsdf_classes,
 )
 from brdflab.errors import BrdflabError
+from brdflab.kernels import engine
 
 #: Environment variable holding the default cluster address.
 ENV = "BRDFLAB_CLUSTER"
@@ -295,6 +296,7 @@ class Cluster:
         batches = iter(lambda: list(itertools.islice(unit_iter, k)), [])
         pending: deque = deque()
         state = {"next": 0, "window": WINDOW * self.workers, "checked": time.monotonic()}
+        eng = engine()  # the workers compute with the client's engine (BRDFLAB_ENGINE / --engine)
 
         def top_up() -> None:
             now = time.monotonic()
@@ -306,7 +308,7 @@ class Cluster:
                     return
                 key = f"brdflab-render-{tag}-{state['next']}"
                 state["next"] += 1
-                pending.append((b, self.client.submit(_render_task, ref, blob, b, seed, key=key, pure=False)))
+                pending.append((b, self.client.submit(_render_task, ref, blob, b, seed, eng, key=key, pure=False)))
 
         try:
             top_up()

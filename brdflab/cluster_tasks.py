@@ -192,9 +192,17 @@ def _worker_name() -> str:
         return f"pid {os.getpid()}"
 
 
-def _render_task(ref: SceneRef, blob: bytes | None, batch: list[tuple], seed: int):
-    """A Dask task: render ``batch`` units; return (per-unit (samples, dropped, rays, Embree s), the tile
-    films concatenated, the worker's address, busy seconds)."""
+def _render_task(ref: SceneRef, blob: bytes | None, batch: list[tuple], seed: int, engine: str = "numba"):
+    """A Dask task: render ``batch`` units with the client's ``engine`` (:mod:`brdflab.kernels`); return
+    (per-unit (samples, dropped, rays, Embree s), the tile films concatenated, the worker's address, busy
+    seconds)."""
+    from brdflab.kernels import use_engine
+
+    with use_engine(engine):
+        return _render_batch(ref, blob, batch, seed)
+
+
+def _render_batch(ref: SceneRef, blob: bytes | None, batch: list[tuple], seed: int):
     from brdflab.alloc import tune_allocator
     from brdflab.workers import _render_unit
 

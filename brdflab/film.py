@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdflab.kernels import compiled, load
 from brdflab.math.frame import sparse_combination
 from brdflab.math.transform import Transform
 from brdflab.scene.properties import PropertyList
@@ -227,6 +228,9 @@ class Film:
     def splat(self, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
         """Add samples at continuous image positions (sx, sy) with RGB ``values`` (N, 3)."""
         if len(sx) == 0:
+            return
+        if self.filter.phases and compiled():
+            load("film").splat_film(self, sx, sy, values)
             return
         # The separable pass costs ∝ samples·taps + pixels·phases·taps, the direct one ∝ samples·taps²:
         # pick the cheaper.

@@ -31,6 +31,7 @@ import warnings
 from brdflab import __version__
 from brdflab.cli.signals import exit_status, install_default_handlers
 from brdflab.errors import EXIT_USAGE, MESSAGE_CHARS, BrdflabError, Interrupted, clean
+from brdflab.kernels import ENGINES, engine, set_engine
 
 EXIT_BROKEN_PIPE = 141
 #: Exit statuses of the command.
@@ -48,6 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="BRDF validation and visualisation workbench for Nori scenes.",
     )
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks for errors")
+    parser.add_argument("--engine", choices=ENGINES, default=None,
+                        help="numba (compiled kernels for the built-in materials, the default) or numpy (the "
+                             "reference path everywhere); also BRDFLAB_ENGINE")
     parser.add_argument("--version", action="version", version=f"brdflab {__version__}",
                         help="print the brdflab version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -65,6 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
         # the sub-parser from resetting a --debug given before the sub-command.
         sub_parser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                                 help="show Python tracebacks for errors")
+        sub_parser.add_argument("--engine", choices=ENGINES, default=argparse.SUPPRESS,
+                                help="numba (default) or numpy: see brdflab --help")
     return parser
 
 
@@ -89,6 +95,9 @@ def main(argv: list[str] | None = None) -> int:
     previous_show = warnings.showwarning
     warnings.showwarning = _show_warning
     try:
+        if getattr(args, "engine", None):  # process-wide (forked workers and Dask tasks inherit it)
+            set_engine(args.engine)
+        engine()  # a bad BRDFLAB_ENGINE is a usage error before any work starts
         if getattr(args, "effort", None):  # process-wide for this command (forked workers inherit it)
             from brdflab.effort import use
 

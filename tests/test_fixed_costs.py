@@ -26,17 +26,30 @@ print(json.dumps({"status": status, "modules": sorted({m.split(".")[0] for m in 
 """
 
 
-def test_render_command_imports_no_heavy_library_and_reports_fixed_costs(tmp_path):
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_render_command_imports_no_heavy_library_and_reports_fixed_costs(tmp_path, engine):
+    """With the NumPy engine nothing heavy is imported; the compiled engine adds numba (and what numba
+    itself imports), and the fixed-costs line counts its import and compile or cache-load time."""
     scene = ROOT / "scenes" / "envlit" / "envlit_ems.xml"
-    out = subprocess.run([sys.executable, "-c", _PROBE, "render", str(scene), "--spp", "1", "--workers", "1",
-                          "-o", str(tmp_path / "e.exr")], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    out = subprocess.run([sys.executable, "-c", _PROBE, "--engine", engine, "render", str(scene), "--spp", "1",
+                          "--workers", "1", "-o", str(tmp_path / "e.exr")], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     rec = json.loads(out.stdout.strip().splitlines()[-1])
     assert rec["status"] == 0
-    assert not set(HEAVY) & set(rec["modules"]), set(HEAVY) & set(rec["modules"])
+    allowed = set()
+    if engine == "numba":
+        assert "numba" in rec["modules"]
+        allowed = set(json.loads(subprocess.run([sys.executable, "-c", "import json, sys, numba; "
+                                                 "print(json.dumps(sorted(sys.modules)))"],
+                                                capture_output=True, text=True).stdout))
+    else:
+        assert "numba" not in rec["modules"]
+    assert not (set(HEAVY) - allowed) & set(rec["modules"]), set(HEAVY) & set(rec["modules"])
     line = next(ln for ln in out.stderr.splitlines() if "fixed costs" in ln)
     for part in ("start-up", "load", "OBJ", "BVH", "EXR", "PNG", "whole run"):
         assert part in line, line
+    assert ("compiled kernels" in line) == (engine == "numba"), line
     assert (tmp_path / "e.exr").is_file() and (tmp_path / "e.png").is_file()
 
 

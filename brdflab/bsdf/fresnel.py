@@ -36,13 +36,19 @@ def fresnel_dielectric(cos_i: np.ndarray, eta_ext: float, eta_int: float) -> np.
     return np.where(tir | ~np.isfinite(f), 1.0, np.clip(f, 0.0, 1.0))
 
 
+def pow5(x: np.ndarray) -> np.ndarray:
+    """x⁵ by products (x², x⁴, x⁵): exact IEEE products, so the compiled kernels round the same (np.power
+    may differ from the C library's pow in the last bit, and is 3.6× slower)."""
+    x2 = x * x
+    x2 *= x2
+    x2 *= x
+    return x2
+
+
 def fresnel_schlick(cos_t: np.ndarray, r0: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
     """Schlick's approximation (N, 3), Fortran-ordered, for cosines (N,) and colours ``r0`` ((3,) or
     (N, 3)); times ``scale`` (N,) per point when given (one pass per channel)."""
-    m = 1.0 - np.asarray(cos_t, dtype=np.float64)
-    m5 = m * m
-    m5 *= m5
-    m5 *= m  # (1 − cos θ)⁵ by products (np.power is 3.6× slower)
+    m5 = pow5(1.0 - np.asarray(cos_t, dtype=np.float64))
     r0 = np.asarray(r0, dtype=np.float64)
     out = np.empty((len(m5), 3), order="F")
     for j in range(3):

@@ -27,6 +27,7 @@ import numpy as np
 from brdflab.bsdf.base import BSDF, BSDFSample, cos_weight, uv_or_zeros
 from brdflab.bsdf.fresnel import fresnel_schlick
 from brdflab.bsdf.microfacet import beckmann_d, half_vector, reflect, reflection_pdf, smith_g1
+from brdflab.kernels import twin
 from brdflab.math import warps
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
@@ -68,6 +69,8 @@ class RoughConductor(BSDF):
     #: Instances differing only in constants are evaluated as one batch (:mod:`brdflab.bsdf.family`).
     batchable = True
     type_name = "roughconductor"
+    #: Compiled twin in :mod:`brdflab.kernels.bsdf` (own body only: subclasses stay on NumPy).
+    kernel = "roughconductor"
     texture_slots = ("R0", "alpha")
     KNOWN = {"R0": "color", "alpha": "float"}
 
@@ -110,18 +113,22 @@ class RoughConductor(BSDF):
             pdf = np.where(ok, reflection_pdf(wh, wo, a, d), 0.0)
         return f, pdf
 
+    @twin("bsdf", "eval_bsdf")
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """f(ω_i, ω_o) (N, 3), without the cosine."""
         return self._terms(wi, wo, uv, True, False)[0]
 
+    @twin("bsdf", "pdf_bsdf")
     def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """p(ω_o) = D(ω_h) cos θ_h / (4 |ω_o·ω_h|), 0 for cos θ_i ≤ 0 or ω_i·ω_h ≤ 0."""
         return self._terms(wi, wo, uv, False, True)[1]
 
+    @twin("bsdf", "eval_pdf_bsdf")
     def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """f and p together (one half vector and one D(ω_h))."""
         return self._terms(wi, wo, uv, True, True)
 
+    @twin("bsdf", "sample_bsdf")
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
         """Sample ω_h ∝ D cos θ_h and reflect ω_i about it.
 

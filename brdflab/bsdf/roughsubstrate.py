@@ -28,9 +28,10 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.bsdf.base import BSDF, BSDFSample, cos_weight, uv_or_zeros
-from brdflab.bsdf.fresnel import fresnel_dielectric
+from brdflab.bsdf.fresnel import fresnel_dielectric, pow5
 from brdflab.bsdf.microfacet import beckmann_d, half_vector, reflect, reflection_pdf, smith_g1
 from brdflab.bsdf.roughconductor import alpha_values, check_alpha
+from brdflab.kernels import twin
 from brdflab.math import warps
 from brdflab.math.frame import take_rows
 from brdflab.scene.properties import PropertyList
@@ -55,6 +56,8 @@ class RoughSubstrate(BSDF):
     #: Instances differing only in constants are evaluated as one batch (:mod:`brdflab.bsdf.family`).
     batchable = True
     type_name = "roughsubstrate"
+    #: Compiled twin in :mod:`brdflab.kernels.bsdf` (own body only: subclasses stay on NumPy).
+    kernel = "roughsubstrate"
     texture_slots = ("kd", "alpha")
     KNOWN = {"kd": "color", "alpha": "float", "intIOR": "float", "extIOR": "float"}
 
@@ -106,7 +109,7 @@ class RoughSubstrate(BSDF):
             ok = (ci > 0) & (co > 0)
             f = np.zeros((n, 3), order="F")
             if self.lobe != "specular":
-                s = self.diffuse_scale * (1.0 - (1.0 - 0.5 * ci) ** 5) * (1.0 - (1.0 - 0.5 * co) ** 5)
+                s = self.diffuse_scale * (1.0 - pow5(1.0 - 0.5 * ci)) * (1.0 - pow5(1.0 - 0.5 * co))
                 f += self.kd.eval(uv_or_zeros(uv, n)) * np.where(ok, s, 0.0)[:, None]
             if self.lobe != "diffuse":
                 fr = fresnel_dielectric(np.clip(hi, 0.0, 1.0), self.ext_ior, self.int_ior)
@@ -122,18 +125,22 @@ class RoughSubstrate(BSDF):
             pdf = np.where(ci > 0, ps * p_mf + (1.0 - ps) * p_d, 0.0)
         return f, pdf
 
+    @twin("bsdf", "eval_bsdf")
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """f(ω_i, ω_o) (N, 3), without the cosine."""
         return self._terms(wi, wo, uv, True, False)[0]
 
+    @twin("bsdf", "pdf_bsdf")
     def pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """Mixture density p_s · p_mf(ω_o) + (1 − p_s) · cos θ_o/π (0 for cos θ_i ≤ 0)."""
         return self._terms(wi, wo, uv, False, True)[1]
 
+    @twin("bsdf", "eval_pdf_bsdf")
     def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """f and p together (one half vector and one D(ω_h))."""
         return self._terms(wi, wo, uv, True, True)
 
+    @twin("bsdf", "sample_bsdf")
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
         """Choose a lobe with the third uniform, sample it, and weight by the mixture density."""
         ps = self._p_specular(wi[:, 2])

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.emitter.base import Emitter, EmitterSample
+from brdflab.kernels import twin
 from brdflab.math.distribution import AliasTable
 from brdflab.math.frame import dot, sparse_combination
 from brdflab.scene.geometry import interp_cols
@@ -45,6 +46,8 @@ class AreaEmitter(Emitter):
     """
 
     type_name = "area"
+    #: Compiled twin in :mod:`brdflab.kernels.emitter` (own body only: subclasses stay on NumPy).
+    kernel = "area"
     texture_slots = ("radiance",)
     KNOWN = {"radiance": "color", "scale": "float"}
 
@@ -117,6 +120,7 @@ class AreaEmitter(Emitter):
         """Radiance (N, 3) emitted toward the front side at surface coordinates ``uv``."""
         return self.radiance.eval(uv) * self.scale
 
+    @twin("emitter", "sample_emitter")
     def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
         """Sample a point uniformly by area and return the solid-angle sample seen from ``ref_p``."""
         n = len(u)
@@ -297,6 +301,9 @@ class AreaLightSet:
     one.
     """
 
+    #: Compiled twin in :mod:`brdflab.kernels.emitter`.
+    kernel = "arealightset"
+
     def __init__(self, emitters: list[AreaEmitter], pmf: np.ndarray) -> None:
         self.emitters = emitters
         pos, face_n, nrm, rad, scale, prob = [], [], [], [], [], []
@@ -327,6 +334,7 @@ class AreaLightSet:
         return bool(emitters) and all(isinstance(e, AreaEmitter) and e.radiance.constant and e.area > 0
                                       for e in emitters)
 
+    @twin("emitter", "sample_light_set")
     def sample(self, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
         """One light sample per reference point: ``u[:, 0]`` picks the triangle, ``u[:, 1:3]`` the point.
 

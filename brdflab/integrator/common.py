@@ -15,6 +15,7 @@ import numpy as np
 
 from brdflab.bsdf.family import BSDFFamilies
 from brdflab.emitter.area import AreaLightSet
+from brdflab.kernels import compiled, load
 from brdflab.math.frame import NormalFrames, take_rows
 from brdflab.scene.geometry import Hits
 from brdflab.scene.properties import PropertyList
@@ -178,8 +179,24 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
         else:
             groups.append((c >> 1, sl))
     smooth = [sl for c, sl in runs if c & 1]
-    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=None if len(smooth) == len(runs) else smooth)
+    smooth = None if len(smooth) == len(runs) else smooth
+    if compiled():
+        return L, _compiled_shading_points(scene, rh, d, idx, groups, smooth)
+    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=smooth)
     return L, make_shading_points(scene, h, take_rows(d, idx), idx, groups)
+
+
+def _compiled_shading_points(scene, rh, d: np.ndarray, idx: np.ndarray, groups: list[tuple[int, slice]],
+                             smooth: list[slice] | None) -> ShadingPoints:
+    """:class:`ShadingPoints` by the compiled engine (:mod:`brdflab.kernels.shading`), bit-identical to
+    ``make_shading_points(scene, g.surface(rh, idx, …), …)``."""
+    fams = scene_tables(scene).bsdf_families
+    p, ng, ns, uv, sign, a, wi = load("shading").shading_arrays(scene.geometry, rh, d, idx,
+                                                                 scene_tables(scene).bsdf_uv, smooth)
+    member = None
+    if fams.any_tables:
+        member = np.take(fams.mesh_member, np.take(scene.geometry.tri_mesh, np.take(rh.prim, idx)))
+    return ShadingPoints(idx, p, ng, ns, NormalFrames(ns, sign, a), uv, wi, groups, member)
 
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:

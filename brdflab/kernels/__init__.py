@@ -1,0 +1,187 @@
+"""Compiled kernels (Numba) for the built-in materials and the film: the *compiled engine*.
+
+The NumPy code in :mod:`brdflab.bsdf`, :mod:`brdflab.emitter` and :mod:`brdflab.film` is the specification
+and the path of every plugin; the kernels here are scalar loops over the same equations, used only for
+the built-in classes that declare a ``kernel`` name in their own class body (a subclass, e.g. a user's
+plugin derived from :class:`~brdflab.RoughConductor`, does not inherit it and stays on the NumPy path).
+
+Engine selection
+----------------
+``BRDFLAB_ENGINE=numpy`` (or ``--engine numpy`` on the command line, which sets that variable for the
+process and its workers) forces the NumPy path everywhere; ``numba`` (the default) uses the kernels where
+they exist. The two engines agree to 1e-12 relative (``tests/test_kernels.py``): the kernels evaluate the
+same formulas in the same order; only the transcendental functions (``exp``, ``log1p``, ``sin``, ``cos``)
+may round differently in the last bit.
+
+Numba is imported lazily, when a kernel first runs, so that start-up (``brdflab --help``, loading a
+scene) does not pay for it; compiled kernels are cached on disk (``cache=True``), so only the first
+process after an install or an edit compiles them.
+
+Examples
+--------
+>>> from brdflab import kernels
+>>> with kernels.use_engine("numpy"):
+...     kernels.engine()
+'numpy'
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import importlib
+import os
+import sys
+import time
+from collections.abc import Iterator
+from types import ModuleType
+
+from brdflab.errors import BrdflabError, clean
+
+#: The engines, by the name ``BRDFLAB_ENGINE`` and ``--engine`` take.
+ENGINES = ("numba", "numpy")
+_ENV = "BRDFLAB_ENGINE"
+_numba_ok: bool | None = None
+
+
+def engine() -> str:
+    """The engine in force: ``"numba"`` (default, when numba imports) or ``"numpy"``.
+
+    Raises
+    ------
+    BrdflabError
+        When ``BRDFLAB_ENGINE`` holds something else.
+    """
+    name = os.environ.get(_ENV, "numba").strip().lower() or "numba"
+    if name not in ENGINES:
+        raise BrdflabError(f"BRDFLAB_ENGINE must be one of {', '.join(ENGINES)}, not {clean(name, 40)}")
+    return name if name == "numpy" or _numba_available() else "numpy"
+
+
+def set_engine(name: str) -> None:
+    """Select the engine for this process and the workers it starts (sets ``BRDFLAB_ENGINE``)."""
+    if name not in ENGINES:
+        raise BrdflabError(f"the engine must be one of {', '.join(ENGINES)}, not {clean(name, 40)}")
+    os.environ[_ENV] = name
+
+
+@contextlib.contextmanager
+def use_engine(name: str) -> Iterator[None]:
+    """Context manager: run a block with engine ``name``, then restore the previous setting."""
+    old = os.environ.get(_ENV)
+    set_engine(name)
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(_ENV, None)
+        else:
+            os.environ[_ENV] = old
+
+
+def compiled() -> bool:
+    """True when the compiled engine is in force."""
+    return engine() == "numba"
+
+
+def _numba_available() -> bool:
+    global _numba_ok
+    if _numba_ok is None:
+        _numba_ok = importlib.util.find_spec("numba") is not None
+    return _numba_ok
+
+
+#: Seconds this process spent importing numba and the kernel modules, and compiling kernels (``numba:compile``
+#: events, outermost only: a load from the on-disk cache is not one); see :func:`costs`.
+_COSTS = {"import": 0.0, "compile": 0.0}
+_timer_installed = False
+
+
+def load(name: str) -> ModuleType:
+    """The kernel module ``brdflab.kernels.<name>`` (imports numba and the module on first use)."""
+    mod = sys.modules.get(f"brdflab.kernels.{name}")
+    if mod is None:
+        t0 = time.perf_counter()
+        mod = importlib.import_module(f"brdflab.kernels.{name}")
+        _install_compile_timer()
+        _COSTS["import"] += time.perf_counter() - t0
+    return mod
+
+
+def _install_compile_timer() -> None:
+    global _timer_installed
+    if _timer_installed:
+        return
+    from numba.core import event
+
+    class CompileTimer(event.Listener):
+        depth, t0 = 0, 0.0
+
+        def on_start(self, ev) -> None:
+            if self.depth == 0:
+                self.t0 = time.perf_counter()
+            self.depth += 1
+
+        def on_end(self, ev) -> None:
+            self.depth -= 1
+            if self.depth == 0:
+                _COSTS["compile"] += time.perf_counter() - self.t0
+
+    event.register("numba:compile", CompileTimer())
+    _timer_installed = True
+
+
+def costs() -> dict[str, float]:
+    """{"import": s, "compile": s} spent on the kernels in this process so far: importing numba and the
+    kernel modules, and JIT-compiling kernels (the first run after an install or an edit; later runs load
+    the machine code from the disk cache, which is not counted here)."""
+    return dict(_COSTS)
+
+
+def for_object(obj: object, kind: str) -> ModuleType | None:
+    """The kernel module for a built-in object, or None for the NumPy path.
+
+    ``obj``'s class must name its kernel in its **own** body (``kernel = "roughconductor"``): subclasses
+    (users' plugins) do not inherit it. ``kind`` is the kernel module (``"bsdf"``).
+    """
+    if type(obj).__dict__.get("kernel") is None or not compiled():
+        return None
+    return load(kind)
+
+
+#: The kernel modules (one per stage).
+MODULES = ("bsdf", "emitter", "film", "shading")
+
+
+def preload() -> None:
+    """Import numba and the kernel modules now (in a process about to fork workers, which then share them
+    instead of each importing numba); nothing with the NumPy engine."""
+    if compiled():
+        for name in MODULES:
+            load(name)
+
+
+def twin(kind: str, name: str):
+    """Decorator of a built-in's NumPy method that has a compiled twin ``brdflab.kernels.<kind>.<name>``.
+
+    The decorated method stays the specification; when :func:`for_object` finds a kernel for the object,
+    ``<name>(obj, *args)`` runs instead (unless it returns ``NotImplemented``: a case the kernel does not
+    cover, such as a textured light).
+    """
+    def wrap(method):
+        @functools.wraps(method)
+        def run(self, *args, **kwargs):
+            k = for_object(self, kind)
+            if k is not None:
+                out = getattr(k, name)(self, *args, **kwargs)
+                if out is not NotImplemented:
+                    return out
+            return method(self, *args, **kwargs)
+
+        return run
+
+    return wrap
+
+
+__all__ = ["ENGINES", "engine", "set_engine", "use_engine", "compiled", "load", "for_object", "twin",
+           "preload", "MODULES", "costs"]

@@ -1,0 +1,277 @@
+"""Kernels of the built-in BSDFs: ``diffuse``, ``roughconductor``, ``roughsubstrate`` (compiled engine).
+
+One kernel per material runs either *terms* (f and/or p of given directions: ``eval``, ``pdf``,
+``eval_pdf``) or *sample* (warp, then the same terms and the weight f·cos θ_o/p). The per-point
+formulas are those of the material's module docstring, written as in its NumPy ``_terms``/``sample``
+(same operations, same order; see :mod:`brdflab.kernels.scalar`).
+
+Parameters reach a kernel as a table and a row per point: a constant (one row), a texture looked up by
+the NumPy code (one row per point) or a material family's member constants (a row index per point, see
+:mod:`brdflab.bsdf.family`). Texture lookups stay in NumPy.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from brdflab.bsdf.base import BSDFSample, uv_or_zeros
+from brdflab.kernels.jit import inline, kernel
+from brdflab.kernels.scalar import (
+    INV_PI,
+    TWO_PI,
+    beckmann_d,
+    cos_weight,
+    finite_or_zero,
+    fresnel_dielectric,
+    pow5,
+    smith_g1,
+)
+from brdflab.texture import PointValues, Texture
+
+#: Kernel operations.
+TERMS, SAMPLE = 0, 1
+#: Parameter modes: one constant row, one row per point, a row index per point.
+CONSTANT, PER_POINT, INDEXED = 0, 1, 2
+#: roughsubstrate lobes (its ``lobe`` argument).
+LOBES = {"both": 0, "specular": 1, "diffuse": 2}
+_NO_INDEX = np.zeros(0, np.int64)
+_NO_U = np.zeros((0, 3))
+_NO_LG = np.zeros(0)
+
+
+@inline
+def _row(mode, idx, i):
+    if mode == CONSTANT:
+        return 0
+    if mode == PER_POINT:
+        return i
+    return idx[i]
+
+
+@inline
+def _beckmann_normal(lg, u1, a):
+    """:func:`brdflab.math.warps.square_to_beckmann` (PBR eq. 8.12) for one sample, given
+    ``lg`` = ln(1 − ξ1) (from NumPy's log1p: the C library's may round differently)."""
+    tan2 = -(a * a) * lg
+    cos_t = 1.0 / math.sqrt(1.0 + tan2)
+    sin_t = math.sqrt(tan2) * cos_t if math.isfinite(tan2) else 1.0
+    phi = TWO_PI * u1
+    return sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t
+
+
+@inline
+def _cosine_dir(u0, u1):
+    """:func:`brdflab.math.warps.square_to_cosine_hemisphere` (Malley's method) for one sample."""
+    r = math.sqrt(u0)
+    phi = TWO_PI * u1
+    return r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u0))
+
+
+@inline
+def _reflect(wix, wiy, wiz, hx, hy, hz):
+    """:func:`brdflab.bsdf.microfacet.reflect`: 2(ω_i·ω_h)ω_h − ω_i."""
+    d2 = 2.0 * (wix * hx + wiy * hy + wiz * hz)
+    return d2 * hx - wix, d2 * hy - wiy, d2 * hz - wiz
+
+
+@inline
+def _half(wix, wiy, wiz, wox, woy, woz):
+    """:func:`brdflab.bsdf.microfacet.half_vector`: (ω_h, defined) and ω_i·ω_h."""
+    hx, hy, hz = wix + wox, wiy + woy, wiz + woz
+    n = math.sqrt(hx * hx + hy * hy + hz * hz)
+    ok = n > 1e-12
+    if not ok:
+        n = 1.0
+    hx, hy, hz = hx / n, hy / n, hz / n
+    return hx, hy, hz, ok, hx * wix + hy * wiy + hz * wiz
+
+
+@inline
+def _reflection_pdf(hx, hy, hz, wox, woy, woz, d):
+    """:func:`brdflab.bsdf.microfacet.reflection_pdf` (PBR eq. 8.13) given D(ω_h)."""
+    oh = abs(wox * hx + woy * hy + woz * hz)
+    return finite_or_zero(d * max(hz, 0.0) / (4.0 * oh))
+
+
+@kernel
+def diffuse(op, need_f, need_pdf, wi, wo, u, alb, alb_mode, alb_idx, f, pdf, weight):
+    """``diffuse``: f = albedo/π, p = cos θ_o/π, cosine-weighted sampling."""
+    for i in range(wi.shape[0]):
+        if op == SAMPLE:
+            wo[i, 0], wo[i, 1], wo[i, 2] = _cosine_dir(u[i, 0], u[i, 1])
+        ci, co = wi[i, 2], wo[i, 2]
+        k = _row(alb_mode, alb_idx, i)
+        s = INV_PI if ci > 0.0 and co > 0.0 else 0.0
+        p = (co * INV_PI if co >= 0.0 else 0.0) if ci > 0.0 else 0.0
+        pdf[i] = p
+        c = cos_weight(0.0, co, p)
+        for j in range(3):
+            fj = s * alb[k, j]
+            if op == SAMPLE:
+                weight[i, j] = finite_or_zero(fj * c)
+            elif need_f:
+                f[i, j] = fj
+
+
+@inline
+def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, r0, k, need_f, need_pdf, out, i):
+    """f (into ``out[i]``) and returns p of one query (:meth:`RoughConductor._terms`)."""
+    ci, co = wiz, woz
+    hx, hy, hz, okh, hi = _half(wix, wiy, wiz, wox, woy, woz)
+    d = beckmann_d(hz, a)
+    if need_f:
+        ok = ci > 0.0 and co > 0.0 and okh
+        g = smith_g1(ci, hi, a) * smith_g1(co, wox * hx + woy * hy + woz * hz, a)
+        s = finite_or_zero(d * g / (4.0 * ci * co)) if ok else 0.0
+        m5 = pow5(1.0 - min(max(hi, 0.0), 1.0))
+        for j in range(3):
+            r = r0[k, j]
+            out[i, j] = (m5 * (1.0 - r) + r) * s
+    p = 0.0
+    if need_pdf and ci > 0.0 and okh and hi > 0.0:
+        p = _reflection_pdf(hx, hy, hz, wox, woy, woz, d)
+    return p
+
+
+@kernel
+def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_mode, al_idx, f, pdf, weight):
+    """``roughconductor``: Beckmann D, Schlick F, rational Smith G1; Beckmann sampling + reflection."""
+    for i in range(wi.shape[0]):
+        a = al[_row(al_mode, al_idx, i)]
+        wix, wiy, wiz = wi[i, 0], wi[i, 1], wi[i, 2]
+        if op == SAMPLE:
+            hx, hy, hz = _beckmann_normal(lg[i], u[i, 1], a)
+            wo[i, 0], wo[i, 1], wo[i, 2] = _reflect(wix, wiy, wiz, hx, hy, hz)
+        k = _row(r0_mode, r0_idx, i)
+        out = weight if op == SAMPLE else f
+        p = _conductor_point(wix, wiy, wiz, wo[i, 0], wo[i, 1], wo[i, 2], a, r0, k, need_f, need_pdf, out, i)
+        pdf[i] = p
+        if op == SAMPLE:
+            c = cos_weight(0.0, wo[i, 2], p)
+            for j in range(3):
+                weight[i, j] = finite_or_zero(weight[i, j] * c)
+
+
+@inline
+def _p_specular(ci, lobe, eta_ext, eta_int):
+    """:meth:`RoughSubstrate._p_specular`: min(F_dielectric(cos θ_i), 0.95) (1 or 0 for one lobe)."""
+    if lobe == 1:
+        return 1.0
+    if lobe == 2:
+        return 0.0
+    return min(fresnel_dielectric(ci, eta_ext, eta_int), 0.95)
+
+
+@kernel
+def substrate(op, need_f, need_pdf, wi, wo, u, lg, kd, kd_mode, kd_idx, al, al_mode, al_idx, lobe, eta_ext, eta_int,
+              diffuse_scale, f, pdf, weight):
+    """``roughsubstrate``: Ashikhmin–Shirley diffuse + Beckmann dielectric coat; mixture sampling."""
+    out = weight if op == SAMPLE else f
+    for i in range(wi.shape[0]):
+        a = al[_row(al_mode, al_idx, i)]
+        wix, wiy, wiz = wi[i, 0], wi[i, 1], wi[i, 2]
+        ps = _p_specular(wiz, lobe, eta_ext, eta_int)
+        if op == SAMPLE:
+            wox, woy, woz = _cosine_dir(u[i, 0], u[i, 1])
+            if u[i, 2] < ps:
+                hx, hy, hz = _beckmann_normal(lg[i], u[i, 1], a)
+                wox, woy, woz = _reflect(wix, wiy, wiz, hx, hy, hz)
+            wo[i, 0], wo[i, 1], wo[i, 2] = wox, woy, woz
+        else:
+            wox, woy, woz = wo[i, 0], wo[i, 1], wo[i, 2]
+        ci, co = wiz, woz
+        hx, hy, hz, okh, hi = _half(wix, wiy, wiz, wox, woy, woz)
+        d = beckmann_d(hz, a)
+        if need_f:
+            ok = ci > 0.0 and co > 0.0
+            s = 0.0
+            if lobe != 1 and ok:
+                s = diffuse_scale * (1.0 - pow5(1.0 - 0.5 * ci)) * (1.0 - pow5(1.0 - 0.5 * co))
+            m = 0.0
+            if lobe != 2:
+                fr = fresnel_dielectric(min(max(hi, 0.0), 1.0), eta_ext, eta_int)
+                g = smith_g1(ci, hi, a) * smith_g1(co, wox * hx + woy * hy + woz * hz, a)
+                m = finite_or_zero(d * fr * g / (4.0 * ci * co)) if ok and okh else 0.0
+            k = _row(kd_mode, kd_idx, i)
+            for j in range(3):
+                out[i, j] = (0.0 + kd[k, j] * s if lobe != 1 else 0.0) + m
+        p = 0.0
+        if need_pdf and ci > 0.0:
+            p_mf = _reflection_pdf(hx, hy, hz, wox, woy, woz, d) if okh and hi > 0.0 else 0.0
+            p_d = co * INV_PI if co >= 0.0 else 0.0
+            p = ps * p_mf + (1.0 - ps) * p_d
+        pdf[i] = p
+        if op == SAMPLE:
+            c = cos_weight(0.0, co, p)
+            for j in range(3):
+                weight[i, j] = finite_or_zero(weight[i, j] * c)
+
+
+def _colour(tex: Texture, uv: np.ndarray | None, n: int) -> tuple[np.ndarray, int, np.ndarray]:
+    """(table (K, 3), mode, row index) of a colour slot."""
+    if tex.constant:
+        return tex.value.reshape(1, 3), CONSTANT, _NO_INDEX
+    if isinstance(tex, PointValues):
+        return tex.table.T, INDEXED, tex.index.astype(np.int64, copy=False)
+    return np.asarray(tex.eval(uv_or_zeros(uv, n)), np.float64), PER_POINT, _NO_INDEX
+
+
+def _scalar(tex: Texture, uv: np.ndarray | None, n: int) -> tuple[np.ndarray, int, np.ndarray]:
+    """(table (K,), mode, row index) of a slot read as its luminance (the roughness α)."""
+    if tex.constant:
+        return np.array([tex.luminance()]), CONSTANT, _NO_INDEX
+    if isinstance(tex, PointValues):
+        return tex.lum, INDEXED, tex.index.astype(np.int64, copy=False)
+    return np.asarray(tex.luminance(uv_or_zeros(uv, n)), np.float64), PER_POINT, _NO_INDEX
+
+
+def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.ndarray | None,
+         u: np.ndarray | None, uv: np.ndarray | None):
+    n = len(wi)
+    f = np.zeros((n, 3), order="F") if need_f and op == TERMS else np.zeros((0, 3), order="F")
+    weight = np.zeros((n, 3), order="F") if op == SAMPLE else np.zeros((0, 3), order="F")
+    pdf = np.zeros(n)
+    if op == SAMPLE:
+        wo = np.empty((n, 3), order="F")
+        need_f = need_pdf = True
+    u = _NO_U if u is None else u
+    # ln(1 − ξ1) of the Beckmann warp by NumPy: its SIMD log1p and the C library's differ in the last bit,
+    # which tiny α amplifies (exp, sin, cos and sqrt agree or are not amplified).
+    lg = _NO_LG
+    if op == SAMPLE and type(bsdf).kernel != "diffuse":
+        with np.errstate(divide="ignore"):  # ξ1 = 1: ln 0 = −∞, the horizon (as in the NumPy warp)
+            lg = np.log1p(-u[:, 0])
+    name = type(bsdf).kernel
+    if name == "diffuse":
+        diffuse(op, need_f, need_pdf, wi, wo, u, *_colour(bsdf.albedo, uv, n), f, pdf, weight)
+    elif name == "roughconductor":
+        conductor(op, need_f, need_pdf, wi, wo, u, lg, *_colour(bsdf.R0, uv, n), *_scalar(bsdf.alpha, uv, n),
+                  f, pdf, weight)
+    else:
+        substrate(op, need_f, need_pdf, wi, wo, u, lg, *_colour(bsdf.kd, uv, n), *_scalar(bsdf.alpha, uv, n),
+                  LOBES[bsdf.lobe], bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
+    return f, pdf, wo, weight
+
+
+def eval_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+    """``bsdf.eval`` of a built-in material, compiled."""
+    return _run(bsdf, TERMS, True, False, wi, wo, None, uv)[0]
+
+
+def pdf_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+    """``bsdf.pdf`` of a built-in material, compiled."""
+    return _run(bsdf, TERMS, False, True, wi, wo, None, uv)[1]
+
+
+def eval_pdf_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None):
+    """``bsdf.eval_pdf`` of a built-in material, compiled."""
+    f, pdf, _, _ = _run(bsdf, TERMS, True, True, wi, wo, None, uv)
+    return f, pdf
+
+
+def sample_bsdf(bsdf, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
+    """``bsdf.sample`` of a built-in material, compiled."""
+    _, pdf, wo, weight = _run(bsdf, SAMPLE, True, True, wi, None, u, uv)
+    return BSDFSample(wo, weight, pdf)

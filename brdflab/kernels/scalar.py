@@ -1,0 +1,84 @@
+"""Scalar versions of the microfacet, Fresnel and warp formulas, one query at a time.
+
+Each function mirrors a vectorised one of the specification (named in its docstring) operation for
+operation, so that both round alike; see that function for the equation and its citation.
+"""
+
+from __future__ import annotations
+
+import math
+
+from brdflab.kernels.jit import inline
+
+PI = math.pi
+INV_PI = 1.0 / math.pi
+TWO_PI = 2.0 * math.pi
+
+
+@inline
+def beckmann_d(c, alpha):
+    """:func:`brdflab.bsdf.microfacet.beckmann_d` (PBR eq. 8.9) for one cos θ_h."""
+    if not c > 0.0:
+        return 0.0
+    a2 = alpha * alpha
+    c2 = c * c
+    t2 = max(1.0 - c2, 0.0) / c2
+    d = math.exp(-t2 / a2) / (PI * a2 * (c2 * c2))
+    return d if math.isfinite(d) else 0.0
+
+
+@inline
+def smith_g1(cos_v, vh, alpha):
+    """:func:`brdflab.bsdf.microfacet.smith_g1` (Walter et al. 2007, eq. 27) with ``vh`` = v·ω_h."""
+    if not (vh / cos_v) > 0.0:
+        return 0.0
+    tan_v = math.sqrt(max(1.0 - cos_v * cos_v, 0.0)) / abs(cos_v)
+    b = 1.0 / (alpha * tan_v)
+    if math.isnan(b) or not b < 1.6:
+        return 1.0
+    return (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
+
+
+@inline
+def fresnel_dielectric(cos_i, eta_ext, eta_int):
+    """:func:`brdflab.bsdf.fresnel.fresnel_dielectric` (PBR eqs. 8.1–8.3) for one cosine."""
+    cos_i = min(max(cos_i, -1.0), 1.0)
+    if eta_ext == eta_int:
+        return 0.0
+    if cos_i >= 0.0:
+        eta_i, eta_t, ci = eta_ext, eta_int, cos_i
+    else:
+        eta_i, eta_t, ci = eta_int, eta_ext, abs(cos_i)
+    e = eta_i / eta_t
+    sin2_t = e * e * max(0.0, 1.0 - ci * ci)
+    if sin2_t >= 1.0:
+        return 1.0
+    ct = math.sqrt(max(0.0, 1.0 - sin2_t))
+    rs = (eta_i * ci - eta_t * ct) / (eta_i * ci + eta_t * ct)
+    rp = (eta_t * ci - eta_i * ct) / (eta_t * ci + eta_i * ct)
+    f = 0.5 * (rs * rs + rp * rp)
+    if not math.isfinite(f):
+        return 1.0
+    return min(max(f, 0.0), 1.0)
+
+
+@inline
+def pow5(x):
+    """:func:`brdflab.bsdf.fresnel.pow5`: x⁵ by products."""
+    x2 = x * x
+    x2 *= x2
+    return x2 * x
+
+
+@inline
+def cos_weight(f, cos_o, pdf):
+    """The factor cos θ_o / p of :func:`brdflab.bsdf.base.cos_weight` (0 where the sample failed)."""
+    if pdf > 0.0 and cos_o > 0.0:
+        return cos_o / pdf
+    return 0.0
+
+
+@inline
+def finite_or_zero(x):
+    """x where finite, else 0."""
+    return x if math.isfinite(x) else 0.0
