@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from brdflab.bsdf.base import BSDFSample, uv_or_zeros
-from brdflab.kernels.jit import inline, kernel
+from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, inline, kernel
 from brdflab.kernels.scalar import (
     INV_PI,
     TWO_PI,
@@ -95,7 +95,7 @@ def _reflection_pdf(hx, hy, hz, wox, woy, woz, d):
     return finite_or_zero(d * max(hz, 0.0) / (4.0 * oh))
 
 
-@kernel
+@kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN2, I8, IDX, OUT2, OUT1, OUT2)
 def diffuse(op, need_f, need_pdf, wi, wo, u, alb, alb_mode, alb_idx, f, pdf, weight):
     """``diffuse``: f = albedo/π, p = cos θ_o/π, cosine-weighted sampling."""
     for i in range(wi.shape[0]):
@@ -135,7 +135,7 @@ def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, r0, k, need_f, need_pdf, o
     return p
 
 
-@kernel
+@kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN1, IN2, I8, IDX, IN1, I8, IDX, OUT2, OUT1, OUT2)
 def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_mode, al_idx, f, pdf, weight):
     """``roughconductor``: Beckmann D, Schlick F, rational Smith G1; Beckmann sampling + reflection."""
     for i in range(wi.shape[0]):
@@ -164,7 +164,7 @@ def _p_specular(ci, lobe, eta_ext, eta_int):
     return min(fresnel_dielectric(ci, eta_ext, eta_int), 0.95)
 
 
-@kernel
+@kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN1, IN2, I8, IDX, IN1, I8, IDX, I8, F8, F8, F8, OUT2, OUT1, OUT2)
 def substrate(op, need_f, need_pdf, wi, wo, u, lg, kd, kd_mode, kd_idx, al, al_mode, al_idx, lobe, eta_ext, eta_int,
               diffuse_scale, f, pdf, weight):
     """``roughsubstrate``: Ashikhmin–Shirley diffuse + Beckmann dielectric coat; mixture sampling."""
@@ -230,13 +230,18 @@ def _scalar(tex: Texture, uv: np.ndarray | None, n: int) -> tuple[np.ndarray, in
 def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.ndarray | None,
          u: np.ndarray | None, uv: np.ndarray | None):
     n = len(wi)
+    wi = np.asarray(wi, np.float64)
+    if op == TERMS:
+        wo = np.asarray(wo, np.float64)
+        if not wo.flags.writeable:  # the kernel's ω_o argument is also its output when it samples
+            wo = wo.copy()
     f = np.zeros((n, 3), order="F") if need_f and op == TERMS else np.zeros((0, 3), order="F")
     weight = np.zeros((n, 3), order="F") if op == SAMPLE else np.zeros((0, 3), order="F")
     pdf = np.zeros(n)
     if op == SAMPLE:
         wo = np.empty((n, 3), order="F")
         need_f = need_pdf = True
-    u = _NO_U if u is None else u
+    u = _NO_U if u is None else np.asarray(u, np.float64)
     # ln(1 − ξ1) of the Beckmann warp by NumPy: its SIMD log1p and the C library's differ in the last bit,
     # which tiny α amplifies (exp, sin, cos and sqrt agree or are not amplified).
     lg = _NO_LG

@@ -16,14 +16,14 @@ import math
 import numpy as np
 
 from brdflab.emitter.base import EmitterSample
-from brdflab.kernels.jit import kernel
+from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, kernel
 
 TINY = np.finfo(np.float64).tiny
 #: Normal sources: one plane normal, face normal per triangle, interpolated vertex normals.
 PLANE, FACE, VERTEX = 0, 1, 2
 
 
-@kernel
+@kernel(BOOL, IDX, IN2, I8, IN2, IN2, IN2, I8, IN2, BOOL, IN1, F8, IN2, OUT2, OUT1, OUT2, OUT1)
 def light_points(quad, k, u, c0, ref_p, pos, normals, nmode, nrm, fused, pdf_scale, area, rad, wi, dist, radiance,
                  pdf):
     """Fill ω, distance, radiance and pdf of one light sample per point (module docstring). ``u`` holds
@@ -81,7 +81,8 @@ def _run(quad: bool, k, u, c0, ref_p, pos, normal, nrm, fused, pdf_scale, area, 
     dist, pdf = np.empty(n), np.empty(n)
     normals = np.atleast_2d(normal)
     nmode = VERTEX if nrm is not None else (PLANE if np.ndim(normal) == 1 else FACE)
-    light_points(quad, np.zeros(0, np.intp) if k is None else k, u, c0, ref_p, pos, normals, nmode,
+    light_points(quad, np.zeros(0, np.int64) if k is None else np.asarray(k, np.int64), np.asarray(u, np.float64), c0,
+                 np.asarray(ref_p, np.float64), pos, normals, nmode,
                  np.zeros((9, 0)) if nrm is None else nrm, fused, pdf_scale, area, rad, wi, dist, radiance, pdf)
     return EmitterSample(wi, dist, radiance, pdf)
 

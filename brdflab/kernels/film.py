@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import inline, kernel
+from brdflab.kernels.jit import I8, IDX, IN1, IN2, OUT3, inline, kernel
 
 
 @inline
@@ -33,7 +33,7 @@ def _first_tap(s, nph, bits, offset, shift, extent, taps):
     return min(max(first, 0), extent - taps), ph
 
 
-@kernel
+@kernel(IN1, IN1, IN2, OUT3, IN2, IDX, I8, I8, I8, I8, I8)
 def splat(sx, sy, values, data, wt, offset, nph, bits, taps, shift_x, shift_y):
     """Add samples at (sx, sy) with RGB ``values`` into ``data`` (4, rows, columns)."""
     bh, bw = data.shape[1], data.shape[2]
@@ -61,5 +61,6 @@ def splat_film(film, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None
     """:meth:`brdflab.film.Film.splat`, compiled (the film's filter must have phase tables)."""
     f = film.filter
     bits = -1 if f.phase_bits is None else f.phase_bits
-    splat(sx, sy, values, film.data, f.phase_weights_t, f.phase_offset, f.phases, bits, f.phase_taps,
+    splat(np.asarray(sx, np.float64), np.asarray(sy, np.float64), np.asarray(values, np.float64), film.data,
+ f.phase_weights_t, f.phase_offset, f.phases, bits, f.phase_taps,
           film.border - film.x0, film.border - film.y0)

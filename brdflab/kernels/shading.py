@@ -13,10 +13,10 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import kernel
+from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1_F4, IN2, OUT1, OUT2, kernel
 
 
-@kernel
+@kernel(IDX, IDX, IN1_F4, IN1_F4, FLAGS, IN2, IN2, IN2, IN2, IN2, BOOL, OUT2, OUT2, OUT2, OUT2, OUT1, OUT1, OUT2)
 def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, want_uv, p, ng, ns, uv, sign, a, wi):
     """Fill p, n_g, n_s, uv, σ, a and ω_i of the camera hits ``idx`` (see the module docstring)."""
     for i in range(idx.shape[0]):
