@@ -71,7 +71,8 @@ class BenchResult:
     """Peak resident memory added by loading the scene (OBJ parse and BVH build), per triangle."""
     fixed: dict = field(default_factory=dict)
     """Fixed costs in seconds: ``startup`` (process start to the first brdflab import done), ``obj``,
-    ``bvh``, ``load`` (the whole scene load), ``write_exr`` and ``write_png`` (written in parallel)."""
+    ``bvh``, ``load`` (the whole scene load), ``write_exr`` and ``write_png`` (written in parallel), ``kernels``
+    (the compiled engine's numba import and kernel load or compile; 0 with the NumPy engine)."""
     whole_seconds: list[float] = field(default_factory=list)
     """Wall time of whole ``brdflab render`` processes (filled by :func:`run_suite`)."""
 
@@ -133,6 +134,9 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
     scene = load_scene(scene_path, integrator or None)
     load_s = time.perf_counter() - t0
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    from brdflab.kernels import costs, preload
+
+    preload()  # compiled engine: numba and the cached kernels (a fixed cost, reported as "kernels")
     tris = scene.geometry.triangle_count
     res = BenchResult(case, integrator or scene.integrator_type, scene.camera.width, scene.camera.height, spp, tris,
                       load_s)
@@ -153,7 +157,7 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
             write = write_images(Path(tmp) / "bench.exr", Path(tmp) / "bench.png", image)
     t = scene.timings
     res.fixed = {"startup": startup, "obj": t.get("obj", 0.0), "bvh": t.get("bvh", 0.0), "load": load_s,
-                 "write_exr": write[0], "write_png": write[1]}
+                 "write_exr": write[0], "write_png": write[1], "kernels": sum(costs().values())}
     return res
 
 

@@ -43,6 +43,7 @@ from brdflab.alloc import tune_allocator
 from brdflab.callable_modules import make_callable
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
+from brdflab.kernels import preload
 from brdflab.limits import WORKER_BYTES, check_memory, check_spp, check_work
 from brdflab.workers import (  # noqa: F401 (re-exported: the module's former contents)
     _ACTIVE_POOLS,
@@ -207,6 +208,7 @@ def render(
         per pixel actually taken (smaller than requested when stopped early).
     """
     tune_allocator()
+    preload()  # the compiled kernels, before the clock starts and before any worker forks
     spp = scene.spp if spp is None else spp
     seed = scene.seed if seed is None else seed
     if not 0 <= seed < 2**64:
