@@ -17,6 +17,7 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
 ``bl.plugins``                             the registry (:mod:`brdflab.plugins`)
 ``bl.warps``                               square-to-sphere/disk/triangle warps and their pdfs
+``bl.kernels``                             the engines (``bl.kernels.use_engine("numpy")``: the NumPy path)
 ``bl.chi2_test`` …                         the statistical checks, returning result objects
 ``bl.check``, ``bl.compare``, ``bl.report`` the commands' workflows (:mod:`brdflab.workflows`), returning
 ``bl.plot``, ``bl.validate``               the result objects the commands write as JSON
@@ -49,6 +50,7 @@ _EXPORTS = {
     "BrdflabError": "brdflab.errors:BrdflabError",
     "plugins": "brdflab.plugins",
     "warps": "brdflab.math.warps",
+    "kernels": "brdflab.kernels",
     "chi2_test": "brdflab.validate:chi2_test",
     "warp_chi2_test": "brdflab.validate:warp_chi2_test",
     "consistency_test": "brdflab.validate:consistency_test",

@@ -1,0 +1,83 @@
+"""The compiled engine stage by stage: each kernel against the NumPy code it mirrors, on one render unit.
+
+Usage (brdflab's environment)::
+
+    python benchmarks/kernel_stages.py [SCENE.xml …] [--rounds 60]
+
+One 16 k-sample unit in the middle of each scene's image is traced once; then the stages that have a compiled
+twin (:mod:`brdflab.kernels`) are timed with both engines, alternately, by thread CPU time (robust on a shared
+machine), median of ``--rounds``: the shading points of the camera hits (``trace_camera`` without its Embree
+call), one light sample per point, the BSDF ``eval`` and ``eval_pdf`` at those directions, and the splat of
+the unit's samples into a 32 × 32 tile film. Embree's share is what neither engine changes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from brdflab import kernels  # noqa: E402
+from brdflab.alloc import tune_allocator  # noqa: E402
+from brdflab.api import load_scene  # noqa: E402
+from brdflab.film import Film  # noqa: E402
+from brdflab.integrator.common import eval_bsdfs, light_dims, point_uniforms, sample_lights, trace_camera  # noqa: E402
+
+
+def stages(path: Path) -> dict:
+    """The stage callables of one unit of the scene ``path`` (Embree traced once, beforehand)."""
+    scene = load_scene(path)
+    cam = scene.camera
+    rng = np.random.default_rng(0)
+    n = 16384
+    sx = rng.random(n) * 16 + cam.width // 2
+    sy = rng.random(n) * 16 + cam.height // 2
+    o, d, tmax = cam.generate_rays(sx, sy)
+    rh = scene.geometry.trace(o, d, tmax)
+    scene.geometry.trace = lambda *a, **k: rh  # time only what happens around the Embree call
+    _, sp = trace_camera(scene, o, d, tmax)
+    u = point_uniforms(rng, n, sp, light_dims(scene))
+    wo = sp.local(sample_lights(scene, sp, u).wi)
+    values = rng.random((n, 3))
+
+    def splat():
+        Film(cam.width, cam.height, scene.filter, x0=cam.width // 2 - 8, y0=cam.height // 2 - 8, w=32,
+             h=32).splat(sx, sy, values)
+
+    return {"shading points": lambda: trace_camera(scene, o, d, tmax),
+            "light sample": lambda: sample_lights(scene, sp, u),
+            "BSDF eval": lambda: eval_bsdfs(scene, sp, wo), "BSDF eval_pdf": lambda: eval_bsdfs(scene, sp, wo, True),
+            "splat": splat}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print one line per (scene, stage): NumPy and compiled milliseconds and their ratio."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="*", type=Path, default=[ROOT / "scenes/cbox/cbox_spheres.xml"])
+    ap.add_argument("--rounds", type=int, default=60)
+    a = ap.parse_args(argv)
+    tune_allocator()
+    print("| scene | stage | NumPy | compiled | ratio |\n|---|---|---|---|---|")
+    for path in a.scenes:
+        for name, fn in stages(path).items():
+            t: dict[str, list[float]] = {"numpy": [], "numba": []}
+            for r in range(a.rounds):
+                for eng in ("numpy", "numba") if r % 2 else ("numba", "numpy"):
+                    with kernels.use_engine(eng):
+                        t0 = time.thread_time()
+                        fn()
+                        t[eng].append(time.thread_time() - t0)
+            ref, fast = (1e3 * statistics.median(t[e]) for e in ("numpy", "numba"))
+            print(f"| {path.stem} | {name} | {ref:.3f} ms | {fast:.3f} ms | {ref / fast:.2f}× |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
