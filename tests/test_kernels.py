@@ -247,6 +247,15 @@ def test_engine_switch_on_the_command_line(tmp_path):
     assert p.stdout.strip() == "numpy", p.stderr
 
 
+def test_missing_numba_falls_back_by_default_and_is_an_error_when_asked_for(monkeypatch):
+    monkeypatch.setattr(kernels, "_numba_ok", False)
+    monkeypatch.delenv("BRDFLAB_ENGINE", raising=False)
+    assert kernels.engine() == "numpy" and kernels.for_object(RoughConductor(), "bsdf") is None
+    monkeypatch.setenv("BRDFLAB_ENGINE", "numba")
+    with pytest.raises(kernels.BrdflabError, match="needs the numba package"):
+        kernels.engine()
+
+
 def test_cluster_tasks_compute_with_the_clients_engine(monkeypatch):
     from brdflab import cluster_tasks
 

@@ -45,17 +45,22 @@ _numba_ok: bool | None = None
 
 
 def engine() -> str:
-    """The engine in force: ``"numba"`` (default, when numba imports) or ``"numpy"``.
+    """The engine in force: ``"numba"`` (the default; ``"numpy"`` when numba is not installed) or ``"numpy"``.
 
     Raises
     ------
     BrdflabError
         When ``BRDFLAB_ENGINE`` holds something else.
     """
-    name = os.environ.get(_ENV, "numba").strip().lower() or "numba"
+    asked = os.environ.get(_ENV, "").strip().lower()
+    name = asked or "numba"
     if name not in ENGINES:
         raise BrdflabError(f"BRDFLAB_ENGINE must be one of {', '.join(ENGINES)}, not {clean(name, 40)}")
-    return name if name == "numpy" or _numba_available() else "numpy"
+    if name == "numba" and not _numba_available():
+        if asked:  # asked for by name: say why it cannot be had; by default, fall back quietly
+            raise BrdflabError("the numba engine needs the numba package (pip install numba), or use --engine numpy")
+        return "numpy"
+    return name
 
 
 def set_engine(name: str) -> None:

@@ -256,7 +256,7 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
                   f, pdf, weight)
     else:
         substrate(op, need_f, need_pdf, wi, wo, u, lg, *_colour(bsdf.kd, uv, n), *_scalar(bsdf.alpha, uv, n),
-                  LOBES[bsdf.lobe], bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
+                  LOBES.get(bsdf.lobe, 0), bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
     return f, pdf, wo, weight
 
 
