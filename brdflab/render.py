@@ -208,7 +208,7 @@ def render(
         per pixel actually taken (smaller than requested when stopped early).
     """
     tune_allocator()
-    preload()  # the compiled kernels, before the clock starts and before any worker forks
+    preload()  # the compiled kernels, before the clock starts and before the fork pool forks (workers inherit them)
     spp = scene.spp if spp is None else spp
     seed = scene.seed if seed is None else seed
     if not 0 <= seed < 2**64:

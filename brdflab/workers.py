@@ -25,7 +25,6 @@ import numpy as np
 
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
-from brdflab.kernels import preload
 from brdflab.scene.geometry import RayStats
 
 #: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
@@ -188,7 +187,6 @@ def _executor(workers: int) -> tuple[Executor | None, bool]:
     if workers <= 1:
         return None, False
     if FORK_WORKERS and "fork" in multiprocessing.get_all_start_methods():
-        preload()  # numba and the kernels, once, before the fork
         return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                    initializer=_worker_init), True
     return ThreadPoolExecutor(workers), False

@@ -190,9 +190,9 @@ def _compiled_shading_points(scene, rh, d: np.ndarray, idx: np.ndarray, groups: 
                              smooth: list[slice] | None) -> ShadingPoints:
     """:class:`ShadingPoints` by the compiled engine (:mod:`brdflab.kernels.shading`), bit-identical to
     ``make_shading_points(scene, g.surface(rh, idx, …), …)``."""
-    fams = scene_tables(scene).bsdf_families
-    p, ng, ns, uv, sign, a, wi = load("shading").shading_arrays(scene.geometry, rh, d, idx,
-                                                                 scene_tables(scene).bsdf_uv, smooth)
+    tab = scene_tables(scene)
+    fams = tab.bsdf_families
+    p, ng, ns, uv, sign, a, wi = load("shading").shading_arrays(scene.geometry, rh, d, idx, tab.bsdf_uv, smooth)
     member = None
     if fams.any_tables:
         member = np.take(fams.mesh_member, np.take(scene.geometry.tri_mesh, np.take(rh.prim, idx)))

@@ -22,7 +22,7 @@ from brdflab.kernels.scalar import (
     INV_PI,
     TWO_PI,
     beckmann_d,
-    cos_weight,
+    cos_over_pdf,
     finite_or_zero,
     fresnel_dielectric,
     pow5,
@@ -106,7 +106,7 @@ def diffuse(op, need_f, need_pdf, wi, wo, u, alb, alb_mode, alb_idx, f, pdf, wei
         s = INV_PI if ci > 0.0 and co > 0.0 else 0.0
         p = (co * INV_PI if co >= 0.0 else 0.0) if ci > 0.0 else 0.0
         pdf[i] = p
-        c = cos_weight(0.0, co, p)
+        c = cos_over_pdf(co, p)
         for j in range(3):
             fj = s * alb[k, j]
             if op == SAMPLE:
@@ -149,7 +149,7 @@ def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_m
         p = _conductor_point(wix, wiy, wiz, wo[i, 0], wo[i, 1], wo[i, 2], a, r0, k, need_f, need_pdf, out, i)
         pdf[i] = p
         if op == SAMPLE:
-            c = cos_weight(0.0, wo[i, 2], p)
+            c = cos_over_pdf(wo[i, 2], p)
             for j in range(3):
                 weight[i, j] = finite_or_zero(weight[i, j] * c)
 
@@ -204,27 +204,20 @@ def substrate(op, need_f, need_pdf, wi, wo, u, lg, kd, kd_mode, kd_idx, al, al_m
             p = ps * p_mf + (1.0 - ps) * p_d
         pdf[i] = p
         if op == SAMPLE:
-            c = cos_weight(0.0, co, p)
+            c = cos_over_pdf(co, p)
             for j in range(3):
                 weight[i, j] = finite_or_zero(weight[i, j] * c)
 
 
-def _colour(tex: Texture, uv: np.ndarray | None, n: int) -> tuple[np.ndarray, int, np.ndarray]:
-    """(table (K, 3), mode, row index) of a colour slot."""
+def _slot(tex: Texture, uv: np.ndarray | None, n: int, grey: bool) -> tuple[np.ndarray, int, np.ndarray]:
+    """(table, mode, row index) of a texture slot: colours (K, 3), or with ``grey`` luminances (K,) (the
+    roughness α), as the NumPy code reads them."""
     if tex.constant:
-        return tex.value.reshape(1, 3), CONSTANT, _NO_INDEX
+        return (np.array([tex.luminance()]) if grey else tex.value.reshape(1, 3)), CONSTANT, _NO_INDEX
     if isinstance(tex, PointValues):
-        return tex.table.T, INDEXED, tex.index.astype(np.int64, copy=False)
-    return np.asarray(tex.eval(uv_or_zeros(uv, n)), np.float64), PER_POINT, _NO_INDEX
-
-
-def _scalar(tex: Texture, uv: np.ndarray | None, n: int) -> tuple[np.ndarray, int, np.ndarray]:
-    """(table (K,), mode, row index) of a slot read as its luminance (the roughness α)."""
-    if tex.constant:
-        return np.array([tex.luminance()]), CONSTANT, _NO_INDEX
-    if isinstance(tex, PointValues):
-        return tex.lum, INDEXED, tex.index.astype(np.int64, copy=False)
-    return np.asarray(tex.luminance(uv_or_zeros(uv, n)), np.float64), PER_POINT, _NO_INDEX
+        return (tex.lum if grey else tex.table.T), INDEXED, tex.index.astype(np.int64, copy=False)
+    uvs = uv_or_zeros(uv, n)
+    return np.asarray(tex.luminance(uvs) if grey else tex.eval(uvs), np.float64), PER_POINT, _NO_INDEX
 
 
 def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.ndarray | None,
@@ -235,9 +228,10 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
         wo = np.asarray(wo, np.float64)
         if not wo.flags.writeable:  # the kernel's ω_o argument is also its output when it samples
             wo = wo.copy()
-    f = np.zeros((n, 3), order="F") if need_f and op == TERMS else np.zeros((0, 3), order="F")
-    weight = np.zeros((n, 3), order="F") if op == SAMPLE else np.zeros((0, 3), order="F")
-    pdf = np.zeros(n)
+    # Outputs are left uninitialised: the kernels write every row of the ones they are asked for.
+    f = np.empty((n if need_f and op == TERMS else 0, 3), order="F")
+    weight = np.empty((n if op == SAMPLE else 0, 3), order="F")
+    pdf = np.empty(n)
     if op == SAMPLE:
         wo = np.empty((n, 3), order="F")
         need_f = need_pdf = True
@@ -245,17 +239,17 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
     # ln(1 − ξ1) of the Beckmann warp by NumPy: its SIMD log1p and the C library's differ in the last bit,
     # which tiny α amplifies (exp, sin, cos and sqrt agree or are not amplified).
     lg = _NO_LG
-    if op == SAMPLE and type(bsdf).kernel != "diffuse":
+    name = type(bsdf).kernel
+    if op == SAMPLE and name != "diffuse":
         with np.errstate(divide="ignore"):  # ξ1 = 1: ln 0 = −∞, the horizon (as in the NumPy warp)
             lg = np.log1p(-u[:, 0])
-    name = type(bsdf).kernel
     if name == "diffuse":
-        diffuse(op, need_f, need_pdf, wi, wo, u, *_colour(bsdf.albedo, uv, n), f, pdf, weight)
+        diffuse(op, need_f, need_pdf, wi, wo, u, *_slot(bsdf.albedo, uv, n, False), f, pdf, weight)
     elif name == "roughconductor":
-        conductor(op, need_f, need_pdf, wi, wo, u, lg, *_colour(bsdf.R0, uv, n), *_scalar(bsdf.alpha, uv, n),
+        conductor(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.R0, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
                   f, pdf, weight)
     else:
-        substrate(op, need_f, need_pdf, wi, wo, u, lg, *_colour(bsdf.kd, uv, n), *_scalar(bsdf.alpha, uv, n),
+        substrate(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.kd, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
                   LOBES.get(bsdf.lobe, 0), bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
     return f, pdf, wo, weight
 

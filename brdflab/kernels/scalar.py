@@ -71,7 +71,7 @@ def pow5(x):
 
 
 @inline
-def cos_weight(f, cos_o, pdf):
+def cos_over_pdf(cos_o, pdf):
     """The factor cos θ_o / p of :func:`brdflab.bsdf.base.cos_weight` (0 where the sample failed)."""
     if pdf > 0.0 and cos_o > 0.0:
         return cos_o / pdf
