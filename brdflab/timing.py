@@ -41,9 +41,9 @@ def process_seconds() -> float:
 
 def fixed_costs_line(startup: float, load: dict[str, float], write: tuple[float, float], whole: float) -> str:
     """``fixed costs 0.52 s: start-up 0.21 s, load 0.22 s (OBJ 0.14, BVH 0.03), write 0.09 s (EXR 0.09 ∥
-    PNG 0.05); whole run 6.80 s``, with the compiled kernels' import (numba and the cached machine code) and
-    JIT compile time when the compiled engine ran (:func:`brdflab.kernels.costs`). ``load`` is a
-    :attr:`Scene.timings <brdflab.scene.loader.Scene.timings>`
+    PNG 0.05); whole run 6.80 s``, with the compiled kernels' load (the prebuilt module, or numba and its
+    cached machine code) and build time (first run only) when the compiled engine ran
+    (:func:`brdflab.kernels.costs`). ``load`` is a :attr:`Scene.timings <brdflab.scene.loader.Scene.timings>`
     dict, ``write`` the (EXR, PNG) seconds of :func:`brdflab.imageio.write_images` (written in parallel)."""
     from brdflab.kernels import costs
 
@@ -51,7 +51,7 @@ def fixed_costs_line(startup: float, load: dict[str, float], write: tuple[float,
     k = costs()
     kernels_s = k["import"] + k["compile"]
     total = startup + load.get("total", 0.0) + write_s + kernels_s
-    kern = (f", compiled kernels {kernels_s:.2f} s (import {k['import']:.2f}, JIT compile "
+    kern = (f", compiled kernels {kernels_s:.2f} s (load {k['import']:.2f}, build "
             f"{k['compile']:.2f})") if kernels_s else ""
     return (f"fixed costs {total:.2f} s: start-up {startup:.2f} s, load {load.get('total', 0.0):.2f} s "
             f"(OBJ {load.get('obj', 0.0):.2f}, BVH {load.get('bvh', 0.0):.2f}), write {write_s:.2f} s "

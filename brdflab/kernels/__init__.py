@@ -13,9 +13,11 @@ they exist. The two engines agree to 1e-12 relative (``tests/test_kernels.py``):
 same formulas in the same order; only the transcendental functions (``exp``, ``log1p``, ``sin``, ``cos``)
 may round differently in the last bit.
 
-Numba is imported lazily, when a kernel first runs, so that start-up (``brdflab --help``, loading a
-scene) does not pay for it; compiled kernels are cached on disk (``cache=True``), so only the first
-process after an install or an edit compiles them.
+The kernels are loaded lazily, when one first runs, so that start-up (``brdflab --help``, loading a
+scene) does not pay for them. The first process after an install or an edit builds them ahead of time
+into an extension module (:mod:`brdflab.kernels.aot`, a few seconds); every later process imports that
+module in milliseconds, without numba. Where that build cannot be had, numba's JIT compiles them, cached on
+disk (:mod:`brdflab.kernels.jit`).
 
 Examples
 --------
@@ -37,6 +39,7 @@ from collections.abc import Iterator
 from types import ModuleType
 
 from brdflab.errors import BrdflabError, clean
+from brdflab.kernels import aot, jit
 
 #: The engines, by the name ``BRDFLAB_ENGINE`` and ``--engine`` take.
 ENGINES = ("numba", "numpy")
@@ -96,20 +99,60 @@ def _numba_available() -> bool:
     return _numba_ok
 
 
-#: Seconds this process spent importing numba and the kernel modules (cache loads included), and compiling
-#: kernels (``numba:compile`` events, outermost only); see :func:`costs`.
+#: Seconds this process spent loading the kernels (the prebuilt module, or numba and its cached machine
+#: code) and building them (the ahead-of-time build, or JIT compiles: ``numba:compile`` events, outermost
+#: only); see :func:`costs`.
 _COSTS = {"import": 0.0, "compile": 0.0}
 _timer_installed = False
+_chosen = False
+#: Why this process runs the JIT instead of the prebuilt module (None: it does not, or has not chosen).
+aot_error: str | None = None
+
+
+def backend() -> str:
+    """``"aot"`` (the prebuilt extension module) or ``"jit"`` (numba), once a kernel module is loaded;
+    ``""`` before."""
+    return jit.BACKEND.mode if _chosen else ""
+
+
+def _choose_backend() -> None:
+    """Before the first kernel module is imported: the prebuilt module when there is one for this key
+    (building it first if needed), else the JIT (:mod:`brdflab.kernels.aot`)."""
+    global _chosen, aot_error
+    if _chosen:
+        return
+    _chosen = True
+    if not aot.enabled():
+        return
+    t0 = time.perf_counter()
+    path, error = aot.find()
+    if path is None and error is None:
+        path, error = aot.build()
+        _COSTS["compile"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+    if path is not None:
+        try:
+            jit.BACKEND.ext = aot.load_module(path)
+            jit.BACKEND.mode = "aot"
+        except (ImportError, OSError) as e:  # a damaged or foreign build: the JIT, as without one
+            path, error = None, f"{path}: {type(e).__name__}: {e}"
+    if path is None:
+        aot_error = error
+        return
+    _COSTS["import"] += time.perf_counter() - t0
 
 
 def load(name: str) -> ModuleType:
-    """The kernel module ``brdflab.kernels.<name>`` (imports numba and the module on first use, which
-    compiles its kernels or loads them from the disk cache)."""
+    """The kernel module ``brdflab.kernels.<name>`` (on first use: loads the prebuilt kernels, building
+    them once if needed, or imports numba and compiles the module's kernels or loads them from numba's
+    disk cache)."""
     mod = sys.modules.get(f"brdflab.kernels.{name}")
     if mod is None:
+        _choose_backend()
         t0, c0 = time.perf_counter(), _COSTS["compile"]
-        _install_compile_timer()
-        mod = importlib.import_module(f"brdflab.kernels.{name}")  # compiles its kernels, or loads them
+        if jit.BACKEND.mode == "jit":
+            _install_compile_timer()
+        mod = importlib.import_module(f"brdflab.kernels.{name}")
         _COSTS["import"] += time.perf_counter() - t0 - (_COSTS["compile"] - c0)
     return mod
 
@@ -138,9 +181,9 @@ def _install_compile_timer() -> None:
 
 
 def costs() -> dict[str, float]:
-    """{"import": s, "compile": s} spent on the kernels in this process so far: importing numba and the
-    kernel modules (loading their machine code from the disk cache included), and JIT-compiling kernels
-    (the first run after an install or an edit)."""
+    """{"import": s, "compile": s} spent on the kernels in this process so far: loading them (the prebuilt
+    module, or numba and the JIT's cached machine code), and building them (the ahead-of-time build or JIT
+    compiles: the first run after an install or an edit)."""
     return dict(_COSTS)
 
 
@@ -190,4 +233,4 @@ def twin(kind: str, name: str):
 
 
 __all__ = ["ENGINES", "engine", "set_engine", "use_engine", "compiled", "load", "for_object", "twin",
-           "preload", "MODULES", "costs"]
+           "preload", "MODULES", "costs", "backend"]

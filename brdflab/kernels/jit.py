@@ -1,48 +1,123 @@
-"""The one Numba decorator every kernel uses, and the argument types of the kernels.
+"""The one decorator every kernel uses, the argument types of the kernels, and the two ways they are built.
+
+A kernel is a scalar Numba function ``void(*argtypes)``. What :func:`kernel` returns depends on the
+backend the process chose before it imported the kernel modules (:func:`brdflab.kernels.load`):
+
+* ``"aot"`` (when it can be had): the function of the same name in the kernels' extension module, built
+  ahead of time by :mod:`brdflab.kernels.aot` and loaded **without importing numba** (a few ms instead of
+  0.5 s per process), behind a guard that checks the arrays' dtype, dimensions and writability (a
+  compiled function given the wrong array would read or write out of bounds).
+* ``"jit"``: ``numba.jit`` with the options below, compiled when the module is imported or loaded from
+  numba's disk cache; also what the ahead-of-time build compiles from.
+
+The compile options (both backends):
 
 * ``nopython``: no Python objects inside a kernel.
 * One explicit signature per kernel, with arrays of any layout (``"A"``: C, Fortran or strided views all
-  fit) and inputs typed read-only (writable arrays fit too): each kernel is compiled once, when its module
-  is imported, so a process that imports the kernels before it forks its workers hands them the machine
-  code (:func:`brdflab.kernels.preload`) instead of each worker loading it on its first call. The
-  wrappers convert arguments to these types (float64 directions, int64 indices).
-* ``cache=True``: the machine code is stored beside the module (``__pycache__``), so a second process loads
-  it instead of compiling.
+  fit) and inputs typed read-only (writable arrays fit too). The wrappers convert arguments to these types
+  (float64 directions, int64 indices).
+* ``cache=True``: the JIT's machine code is stored beside the module (``__pycache__``).
 * ``error_model="numpy"``: a division by zero gives ±inf/NaN as in NumPy (the NumPy code relies on it
   and masks afterwards), not a Python exception.
 * ``fastmath=False``: IEEE arithmetic, no reassociation and no fused multiply-add contraction, so the
   kernels round like the NumPy code they mirror.
-* ``nogil=True``: threads (Dask's threaded workers) can run kernels side by side.
+* ``nogil=True`` (JIT only): threads can run kernels side by side (brdflab's workers are processes).
 """
 
 from __future__ import annotations
 
-import numba
-from numba import types
+from collections.abc import Callable
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
 
 OPTIONS = dict(nopython=True, cache=True, error_model="numpy", fastmath=False, nogil=True)
 
-F8, F4, I8, BOOL = types.float64, types.float32, types.int64, types.boolean
+
+@dataclass(frozen=True)
+class Arg:
+    """One kernel argument: a NumPy dtype name, 0 for a scalar or the number of array dimensions, and
+    whether the kernel writes it."""
+
+    dtype: str
+    ndim: int = 0
+    out: bool = False
+
+    def numba_type(self):
+        """The Numba type (arrays of any layout, read-only unless an output)."""
+        from numba import types
+
+        t = types.boolean if self.dtype == "bool" else getattr(types, self.dtype)
+        return t if self.ndim == 0 else types.Array(t, self.ndim, "A", readonly=not self.out)
 
 
-def array(dtype, ndim: int, out: bool = False):
-    """Array type of any layout; read-only unless it is an output."""
-    return types.Array(dtype, ndim, "A", readonly=not out)
+F8, F4, I8, BOOL = Arg("float64"), Arg("float32"), Arg("int64"), Arg("bool")
+IN1, IN2, IN1_F4, IDX, FLAGS = Arg("float64", 1), Arg("float64", 2), Arg("float32", 1), Arg("int64", 1), Arg("bool", 1)
+OUT1, OUT2, OUT3 = Arg("float64", 1, True), Arg("float64", 2, True), Arg("float64", 3, True)
 
 
-IN1, IN2, IN1_F4, IDX, FLAGS = array(F8, 1), array(F8, 2), array(F4, 1), array(I8, 1), array(BOOL, 1)
-OUT1, OUT2, OUT3 = array(F8, 1, True), array(F8, 2, True), array(F8, 3, True)
+class _Backend:
+    mode = "jit"
+    ext: ModuleType | None = None
 
 
-def kernel(*argtypes):
-    """Compile the decorated function for ``void(*argtypes)`` with :data:`OPTIONS` (or load it from the
-    disk cache), now."""
+BACKEND = _Backend()
+
+#: Every kernel defined in this process under the JIT backend: (export name, dispatcher, argument types),
+#: what the ahead-of-time build exports.
+KERNELS: list[tuple[str, Callable, tuple[Arg, ...]]] = []
+
+
+def export_name(fn: Callable) -> str:
+    """``<module>__<function>``: the kernel's name in the extension module (``bsdf__diffuse``)."""
+    return f"{fn.__module__.rsplit('.', 1)[-1]}__{fn.__name__}"
+
+
+def kernel(*argtypes: Arg):
+    """A kernel ``void(*argtypes)``: the prebuilt function (``"aot"`` backend) or ``numba.jit`` with
+    :data:`OPTIONS`, compiled or loaded from the disk cache now (``"jit"``)."""
     def wrap(fn):
-        return numba.jit(types.void(*argtypes), **OPTIONS)(fn)
+        if BACKEND.mode == "aot":
+            return guarded(getattr(BACKEND.ext, export_name(fn)), export_name(fn), argtypes)
+        import numba
+        from numba import types
+
+        disp = numba.jit(types.void(*(a.numba_type() for a in argtypes)), **OPTIONS)(fn)
+        KERNELS.append((export_name(fn), disp, argtypes))
+        return disp
 
     return wrap
 
 
 def inline(fn):
-    """A scalar helper called from kernels (compiled into its callers)."""
+    """A scalar helper called from kernels (compiled into its callers; left as Python under ``"aot"``,
+    where nothing calls it)."""
+    if BACKEND.mode == "aot":
+        return fn
+    import numba
+
     return numba.jit(inline="always", **OPTIONS)(fn)
+
+
+def guarded(fn: Callable, name: str, argtypes: tuple[Arg, ...]) -> Callable:
+    """``fn`` (a prebuilt kernel, which trusts its arguments' memory layout) behind a check of each array
+    argument's type, dtype, dimensions and, for outputs, writability."""
+    arrays = [(i, np.dtype(a.dtype), a.ndim, a.out) for i, a in enumerate(argtypes) if a.ndim]
+
+    def call(*args):
+        for i, dt, nd, out in arrays:
+            a = args[i]
+            if not isinstance(a, np.ndarray) or a.dtype != dt or a.ndim != nd or (out and not a.flags.writeable):
+                raise TypeError(f"kernel {name}: argument {i} must be a {'writable ' if out else ''}{nd}-d {dt} "
+                                f"array, not {_describe(a)}")
+        fn(*args)
+
+    call.__name__ = call.__qualname__ = name
+    return call
+
+
+def _describe(a: object) -> str:
+    if not isinstance(a, np.ndarray):
+        return f"a {type(a).__name__}"
+    return f"a {a.ndim}-d {a.dtype} array{'' if a.flags.writeable else ' (read-only)'}"
