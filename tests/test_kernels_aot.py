@@ -81,7 +81,7 @@ def test_a_fresh_cache_builds_once_then_loads(tmp_path):
     second = _run(code, BRDFLAB_KERNEL_CACHE=str(tmp_path))
     assert first.stdout.split() == ["aot", "False", "True"], first.stderr[-2000:]
     assert second.stdout.split() == ["aot", "False", "False"], second.stderr[-2000:]
-    assert [p.name for p in tmp_path.iterdir()] == [aot.key()]  # no temporary folder left behind
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key()]  # no temporary folder
 
 
 def test_a_failed_build_is_remembered_and_falls_back_to_the_jit(tmp_path, monkeypatch):
@@ -124,3 +124,36 @@ def test_prebuilt_kernels_refuse_wrong_arrays():
             film_mod.splat(*args[:i], bad, *args[i + 1:])
     with pytest.raises(TypeError, match="argument 5"):
         film_mod.splat(*args[:5], [0] * 8, *args[6:])
+
+
+def test_a_build_without_a_c_compiler_warns_once_and_renders_with_the_jit(tmp_path):
+    """A real failure (the C compiler is missing): one warning line naming the error, no traceback, the
+    render done through the JIT; the next process remembers the failure and says nothing."""
+    cmd = [sys.executable, "-m", "brdflab.cli.main", "render", "scenes/cbox/cbox_diffuse.xml", "--spp", "1",
+           "--workers", "1", "-o", str(tmp_path / "out" / "x.exr")]
+    env = {**os.environ, "BRDFLAB_ENGINE": "numba", "BRDFLAB_KERNEL_CACHE": str(tmp_path / "cache"),
+           "CC": str(tmp_path / "no-such-cc")}
+    runs = [subprocess.run(cmd + ["--force"] * i, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+            for i in range(2)]
+    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr[-2000:]
+    warned = [ln for ln in runs[0].stderr.splitlines() if "could not be prebuilt" in ln]
+    assert len(warned) == 1 and warned[0].startswith("brdflab: warning:") and "Error" in warned[0], runs[0].stderr
+    assert "Traceback" not in runs[0].stderr and "could not be prebuilt" not in runs[1].stderr
+    assert (tmp_path / "out" / "x.exr").is_file()
+
+
+def test_processes_starting_together_build_once(tmp_path):
+    """Two processes on an empty cache at once: one builds while the other waits for it (a lock), both load
+    the module, and no temporary folder is left."""
+    # Each process says whether it ran the build's child itself ("built") or found the module ("found").
+    code = ("import sys, subprocess; from brdflab import kernels; real = subprocess.run; ran = []\n"
+            "def spy(*a, **k):\n    ran.append(1)\n    return real(*a, **k)\n"
+            "kernels.aot.subprocess.run = spy; kernels.preload(); "
+            "print(kernels.backend(), 'numba' in sys.modules, 'built' if ran else 'found')")
+    env = {**os.environ, "BRDFLAB_ENGINE": "numba", "BRDFLAB_KERNEL_CACHE": str(tmp_path)}
+    procs = [subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert sorted(o[0].split()[-1] for o in outs) == ["built", "found"], outs
+    assert [o[0].split()[:2] for o in outs] == [["aot", "False"]] * 2, outs
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key()]

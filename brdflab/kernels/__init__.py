@@ -35,6 +35,7 @@ import importlib
 import os
 import sys
 import time
+import warnings
 from collections.abc import Iterator
 from types import ModuleType
 
@@ -130,6 +131,9 @@ def _choose_backend() -> None:
         path, error = aot.build()
         _COSTS["compile"] += time.perf_counter() - t0
         t0 = time.perf_counter()
+        if path is None:  # said once, when the build fails; later processes use the JIT quietly
+            warnings.warn(f"the compiled kernels could not be prebuilt ({clean(aot.summary(error or ''), 160)}); "
+                          f"numba's JIT compiles them instead (about 0.5 s per process)", stacklevel=3)
     if path is not None:
         try:
             jit.BACKEND.ext = aot.load_module(path)

@@ -10,30 +10,34 @@ module in a few milliseconds.
 
 * **Where**: ``$BRDFLAB_KERNEL_CACHE`` if set, else ``brdflab/kernels/__pycache__/aot`` when writable,
   else ``~/.cache/brdflab/kernels`` (``$XDG_CACHE_HOME``). One folder per :func:`key`.
-* **Key**: the sources in ``brdflab/kernels/``, the Python, numba, llvmlite and NumPy versions, and the CPU (the code is
-  compiled for the host CPU, as the JIT's is): an edit, an upgrade or another machine of a cluster on a
-  shared disk builds its own.
-* **Build**: in a child process (``python -m brdflab.kernels.aot DIR``, a few seconds, counted as compile
-  time), into a temporary folder renamed into place, so concurrent first runs never see half a module.
-* **Fallback**: when the build fails (no C compiler, no ``numba.pycc``), a marker with the error is left
-  in the folder and this and later processes use the JIT (numba's disk cache) instead.
-  ``BRDFLAB_AOT=0`` asks for the JIT.
+* **Key**: the sources in ``brdflab/kernels/``, the Python, numba, llvmlite and NumPy versions, and the CPU
+  (the code is compiled for the host CPU, as the JIT's is): an edit, an upgrade or another machine of a
+  cluster on a shared disk builds its own.
+* **Build**: in a child process (``python -m brdflab.kernels.aot DIR``, a few seconds, counted as build
+  time), into a temporary folder renamed into place, so that no process ever sees half a module; processes
+  starting together (a pool, a cluster's workers) wait on a lock for the first one's build.
+* **Fallback**: when the build fails (no C compiler, no ``numba.pycc``), the process says so in one warning
+  line, leaves the error in the folder (``build-failed.txt``; delete it to try again) and it and later
+  processes use the JIT (numba's disk cache) instead. ``BRDFLAB_AOT=0`` asks for the JIT.
 
-Both backends compile the same functions with the same options; ``tests/test_kernels.py`` checks that
-they agree bit for bit, and each against the NumPy code to 1e-12.
+Both backends compile the same functions with the same options; ``tests/test_kernels_aot.py`` checks that
+they agree bit for bit (``tests/test_kernels.py``: each against the NumPy code to 1e-12).
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.machinery
 import importlib.util
 import os
 import platform
+import re
 import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -128,32 +132,61 @@ def _child_env() -> dict[str, str]:
 
 
 def build(k: str | None = None, timeout: float = 600.0) -> tuple[Path | None, str | None]:
-    """Build the module for this key in a child process; (its path, None) or (None, the error)."""
+    """Build the module for this key in a child process; (its path, None) or (None, the error). Processes
+    that start at once (a pool, a cluster's workers) wait for the first one's build instead of repeating it."""
     k = k or key()
     root = _writable_root()
     if root is None:
         return None, "no writable cache folder"
-    tmp = Path(tempfile.mkdtemp(prefix=f".{k}-", dir=root))
-    try:
+    with _locked(root / ".build.lock"):
+        path, error = find(k)
+        if path is not None or error is not None:  # built (or failed) while this process waited
+            return path, error
+        tmp = Path(tempfile.mkdtemp(prefix=f".{k}-", dir=root))
         try:
-            p = subprocess.run([sys.executable, "-m", "brdflab.kernels.aot", str(tmp)], capture_output=True,
-                               text=True, timeout=timeout, env=_child_env())
-            ok = p.returncode == 0 and _module_file(tmp) is not None
-            error = None if ok else (p.stderr or p.stdout or f"exit status {p.returncode}")[-2000:]
-        except subprocess.TimeoutExpired:  # a slow machine, not a broken build: the next process tries again
-            return None, f"the build took more than {timeout:.0f} s"
-        except OSError as e:
-            ok, error = False, f"{type(e).__name__}: {e}"
-        if not ok:
-            (tmp / FAILED).write_text(error or "unknown error")
-        try:
-            tmp.rename(root / k)  # atomic: another process's finished build may already be there
-        except OSError:
-            pass
-    finally:  # whatever happens (a signal included), no temporary folder is left behind
-        shutil.rmtree(tmp, ignore_errors=True)
+            try:
+                p = subprocess.run([sys.executable, "-m", "brdflab.kernels.aot", str(tmp)], capture_output=True,
+                                   text=True, timeout=timeout, env=_child_env())
+                ok = p.returncode == 0 and _module_file(tmp) is not None
+                error = None if ok else (p.stderr or p.stdout or f"exit status {p.returncode}")[-2000:]
+            except subprocess.TimeoutExpired:  # a slow machine, not a broken build: the next process retries
+                return None, f"the build took more than {timeout:.0f} s"
+            except OSError as e:
+                ok, error = False, f"{type(e).__name__}: {e}"
+            if not ok:
+                (tmp / FAILED).write_text(error or "unknown error")
+            tmp.chmod(0o755)  # mkdtemp's 0700 would hide the build from other users of a shared cache
+            try:
+                tmp.rename(root / k)  # atomic
+            except OSError:
+                pass
+        finally:  # whatever happens (a signal included), no temporary folder is left behind
+            shutil.rmtree(tmp, ignore_errors=True)
     path, recorded = find(k)
     return path, (None if path is not None else (error or recorded))
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` (``flock``; none where the platform has no ``fcntl``)."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def summary(error: str) -> str:
+    """The line of a build's error output that says what went wrong (its last ``…Error: …`` line)."""
+    lines = [ln.strip() for ln in error.splitlines() if ln.strip()]
+    named = [ln for ln in lines if re.match(r"^[A-Za-z_.]*(Error|Exception)\b", ln)]
+    return (named or lines or ["unknown error"])[-1]
 
 
 def _compile_into(folder: str) -> None:
