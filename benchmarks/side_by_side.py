@@ -19,8 +19,8 @@ Usage (with brdflab's own environment active)::
   absent) are among the cases.
 * ``--engines numba,numpy`` (default: both) times brdflab with each engine (``BRDFLAB_ENGINE``, see
   :mod:`brdflab.kernels`), alternately with the rest; the whole-process figures of the compiled engine include
-  numba's import and loading its cached kernels (the first run after an install also compiles them: run the
-  script once, or ``brdflab render`` once, before timing).
+  loading its prebuilt kernels (the first run after an install or an edit also builds them, about 6 s: run
+  ``brdflab render`` once before timing).
 * Prints a table of median samples/s and the ratio brdflab / Mitsuba per variant — the headline figure —
   and writes ``benchmarks/results/side_by_side.json`` plus a Markdown table for the README.
 """
