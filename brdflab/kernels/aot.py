@@ -10,7 +10,7 @@ module in a few milliseconds.
 
 * **Where**: ``$BRDFLAB_KERNEL_CACHE`` if set, else ``brdflab/kernels/__pycache__/aot`` when writable,
   else ``~/.cache/brdflab/kernels`` (``$XDG_CACHE_HOME``). One folder per :func:`key`.
-* **Key**: the sources in ``brdflab/kernels/``, the Python, numba, llvmlite and NumPy versions, and the CPU
+* **Key**: the sources in ``brdflab/kernels/``, the installed numba, llvmlite and NumPy, the Python, and the CPU
   (the code is compiled for the host CPU, as the JIT's is): an edit, an upgrade or another machine of a
   cluster on a shared disk builds its own.
 * **Build**: in a child process (``python -m brdflab.kernels.aot DIR``, a few seconds, counted as build
@@ -61,17 +61,17 @@ def _cpu() -> str:
 
 
 def key() -> str:
-    """The build's key: a hash of the kernel sources, the versions that compile them and the CPU."""
-    from importlib.metadata import PackageNotFoundError, version
-
+    """The build's key: a hash of the kernel sources, of what compiles them (numba, llvmlite, NumPy: each
+    package's ``__init__.py``, path, size and modification time, which an upgrade or a reinstall changes;
+    cheaper than reading their metadata) and of the Python and the CPU."""
     h = hashlib.sha256()
     for path in sorted(HERE.glob("*.py")):  # the kernels, their helpers and this build
         h.update(path.name.encode() + path.read_bytes())
-    for dist in ("numba", "llvmlite", "numpy"):
-        try:
-            h.update(version(dist).encode())
-        except PackageNotFoundError:
-            h.update(b"-")
+    for name in ("numba", "llvmlite", "numpy"):
+        spec = importlib.util.find_spec(name)
+        origin = spec.origin if spec is not None else None
+        st = os.stat(origin) if origin else None
+        h.update(f"{origin}|{st.st_size if st else 0}|{st.st_mtime_ns if st else 0}".encode())
     h.update(f"{sys.version}|{platform.machine()}|{_cpu()}".encode())
     return h.hexdigest()[:20]
 
