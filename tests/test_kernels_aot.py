@@ -124,6 +124,8 @@ def test_prebuilt_kernels_refuse_wrong_arrays():
             film_mod.splat(*args[:i], bad, *args[i + 1:])
     with pytest.raises(TypeError, match="argument 5"):
         film_mod.splat(*args[:5], [0] * 8, *args[6:])
+    with pytest.raises(TypeError, match="takes 11 arguments, not 10"):
+        film_mod.splat(*args[:10])
 
 
 def test_a_build_without_a_c_compiler_warns_once_and_renders_with_the_jit(tmp_path):

@@ -101,8 +101,10 @@ def find(k: str | None = None) -> tuple[Path | None, str | None]:
         p = _module_file(folder)
         if p is not None:
             return p, None
-        if (folder / FAILED).is_file():
+        try:
             return None, (folder / FAILED).read_text(errors="replace")[-2000:]
+        except OSError:  # no marker (or one this user cannot read): the next root
+            continue
     return None, None
 
 

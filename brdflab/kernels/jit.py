@@ -101,11 +101,14 @@ def inline(fn):
 
 
 def guarded(fn: Callable, name: str, argtypes: tuple[Arg, ...]) -> Callable:
-    """``fn`` (a prebuilt kernel, which trusts its arguments' memory layout) behind a check of each array
-    argument's type, dtype, dimensions and, for outputs, writability."""
+    """``fn`` (a prebuilt kernel, which trusts its arguments' memory layout) behind a check of the argument
+    count and of each array argument's type, dtype, dimensions and, for outputs, writability."""
     arrays = [(i, np.dtype(a.dtype), a.ndim, a.out) for i, a in enumerate(argtypes) if a.ndim]
+    count = len(argtypes)
 
     def call(*args):
+        if len(args) != count:
+            raise TypeError(f"kernel {name} takes {count} arguments, not {len(args)}")
         for i, dt, nd, out in arrays:
             a = args[i]
             if not isinstance(a, np.ndarray) or a.dtype != dt or a.ndim != nd or (out and not a.flags.writeable):
