@@ -93,6 +93,10 @@ def test_a_failed_build_is_remembered_and_falls_back_to_the_jit(tmp_path, monkey
         path, error = aot.build("k1")
         assert path is None and "no cc" in error
         assert aot.find("k1") == (None, "no cc")
+        # A build cut short by a signal (or a timeout) is not a broken one: nothing is remembered.
+        m.setattr(aot.subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(a, -2, "", "KeyboardInterrupt"))
+        assert aot.build("k2") == (None, "the build was stopped by signal 2") and aot.find("k2") == (None, None)
+        assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", "k1"]
     (tmp_path / aot.key()).mkdir()
     (tmp_path / aot.key() / aot.FAILED).write_text("no cc")
     code = ("import sys; from brdflab import kernels, RoughConductor; import numpy as np; "

@@ -34,9 +34,11 @@ import os
 import platform
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
@@ -144,13 +146,17 @@ def build(k: str | None = None, timeout: float = 600.0) -> tuple[Path | None, st
         path, error = find(k)
         if path is not None or error is not None:  # built (or failed) while this process waited
             return path, error
+        _remove_stale(root)
         tmp = Path(tempfile.mkdtemp(prefix=f".{k}-", dir=root))
         try:
             try:
                 p = subprocess.run([sys.executable, "-m", "brdflab.kernels.aot", str(tmp)], capture_output=True,
-                                   text=True, timeout=timeout, env=_child_env())
+                                   text=True, timeout=timeout, env=_child_env(), preexec_fn=_child_setup(),
+                                   start_new_session=True)  # a terminal's Ctrl-C reaches neither it nor its C compiler
                 ok = p.returncode == 0 and _module_file(tmp) is not None
                 error = None if ok else (p.stderr or p.stdout or f"exit status {p.returncode}")[-2000:]
+                if p.returncode < 0:  # killed by a signal: not a broken build, the next process retries
+                    return None, f"the build was stopped by signal {-p.returncode}"
             except subprocess.TimeoutExpired:  # a slow machine, not a broken build: the next process retries
                 return None, f"the build took more than {timeout:.0f} s"
             except OSError as e:
@@ -166,6 +172,33 @@ def build(k: str | None = None, timeout: float = 600.0) -> tuple[Path | None, st
             shutil.rmtree(tmp, ignore_errors=True)
     path, recorded = find(k)
     return path, (None if path is not None else (error or recorded))
+
+
+def _child_setup():
+    """For the build's child (POSIX; it runs in a session of its own): leave SIGINT, SIGTERM and SIGHUP to
+    the parent, which stops the run its own way (a build cut short by a signal is not a failed build), and
+    die with the parent."""
+    if os.name != "posix":
+        return None
+    from brdflab.workers import _die_with_parent
+
+    def setup() -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_IGN)
+        _die_with_parent()
+
+    return setup
+
+
+def _remove_stale(root: Path, age: float = 3600.0) -> None:
+    """Remove temporary build folders older than ``age`` seconds (left by a process killed mid-build)."""
+    now = time.time()
+    for p in root.glob(".*-*"):
+        try:
+            if p.is_dir() and now - p.stat().st_mtime > age:
+                shutil.rmtree(p, ignore_errors=True)
+        except OSError:
+            continue
 
 
 @contextlib.contextmanager
