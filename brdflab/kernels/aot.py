@@ -34,7 +34,6 @@ import os
 import platform
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -175,19 +174,13 @@ def build(k: str | None = None, timeout: float = 600.0) -> tuple[Path | None, st
 
 
 def _child_setup():
-    """For the build's child (POSIX; it runs in a session of its own): leave SIGINT, SIGTERM and SIGHUP to
-    the parent, which stops the run its own way (a build cut short by a signal is not a failed build), and
-    die with the parent."""
+    """For the build's child (POSIX): die with the parent (``PR_SET_PDEATHSIG``). It runs in a session of
+    its own, so a terminal's signals reach only the parent, which stops the run its own way."""
     if os.name != "posix":
         return None
     from brdflab.workers import _die_with_parent
 
-    def setup() -> None:
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, signal.SIG_IGN)
-        _die_with_parent()
-
-    return setup
+    return _die_with_parent
 
 
 def _remove_stale(root: Path, age: float = 3600.0) -> None:
@@ -226,7 +219,6 @@ def summary(error: str) -> str:
 
 def _compile_into(folder: str) -> None:
     """The child process of :func:`build`: compile every kernel into ``folder``/``NAME``."""
-    import importlib
     import warnings
 
     warnings.simplefilter("ignore")  # numba.pycc announces its own future replacement
