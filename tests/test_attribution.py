@@ -28,7 +28,9 @@ def _render(scene, integrator: str, seed: int, spp: int = 32) -> np.ndarray:
 
 
 def _shadow_bug(monkeypatch):
-    """The student's bug: the shadow ray reaches past the light point, so the light itself blocks it."""
+    """The student's bug: the shadow ray reaches past the light point, so the light itself blocks it (planted in
+    the NumPy code: the compiled engine builds its shadow rays in :mod:`brdflab.kernels.direct`)."""
+    monkeypatch.setenv("BRDFLAB_ENGINE", "numpy")
     orig = Geometry.shadow_occluded
     monkeypatch.setattr(Geometry, "shadow_occluded",
                         lambda self, p, ng, w, dist, idx: orig(self, p, ng, w, dist * 1.01 + 1e-3, idx))

@@ -330,3 +330,46 @@ def test_area_light_sampling_kernel_is_bit_identical(scene):
         assert (a.pdf > 0).sum() > 100
         for x, y in zip(a, b, strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("scene", ["scenes/cbox/cbox_spheres.xml", "scenes/checker/checker_point.xml",
+                                   "scenes/veach/veach_mis.xml", "scenes/envlit/envlit_mis.xml",
+                                   "scenes/lights/mixed_lights_mis.xml"])
+def test_direct_integrator_kernels_are_bit_identical(scene, monkeypatch):
+    """The light term's contributions and shadow rays (with and without MIS weights) and the BSDF rays of
+    ``direct_mats`` (:mod:`brdflab.kernels.direct`), given the same light and BSDF samples: every light kind,
+    occluders, the environment's infinite distance, delta lights, points below the horizon."""
+    import brdflab.integrator.common as common
+    import brdflab.integrator.direct_mats as mats
+    import brdflab.scene.geometry as geometry
+    from brdflab.api import load_scene
+    from brdflab.integrator.direct_mis import mis_weight
+
+    def numpy_only(fn):
+        def run(*a, **k):
+            with kernels.use_engine("numpy"):
+                return fn(*a, **k)
+        return run
+
+    for mod, name in ((common, "eval_bsdfs"), (common, "sample_lights"), (mats, "sample_bsdfs")):
+        monkeypatch.setattr(mod, name, numpy_only(getattr(mod, name)))
+    sc = load_scene(ROOT / scene, width=80, height=60)
+    rng = np.random.default_rng(5)
+    o, d, tmax = sc.camera.generate_rays(rng.random(20000) * 80, rng.random(20000) * 60)
+    with kernels.use_engine("numpy"):
+        _, sp = common.trace_camera(sc, o, d, tmax)
+    k = common.light_dims(sc)
+    u = common.point_uniforms(rng, len(o), sp, k + 3)
+    out = {}
+    for eng in kernels.ENGINES:
+        with kernels.use_engine(eng), np.errstate(all="ignore"):
+            lit = common.light_term(sc, sp, u[:, :k])
+            weighted = common.light_term(sc, sp, u[:, :k],
+                                         lambda ls, pb: np.where(ls.delta, 1.0, mis_weight(ls.pdf, pb, 1.0)))
+            out[eng] = (lit, weighted, *mats.bsdf_rays(sc, sp, u[:, k:]))
+    a, b = out["numpy"], out["numba"]
+    assert kernels.load("direct").T_INF == geometry.T_INF
+    assert (a[0] > 0).any(axis=1).sum() > 1000 and len(a[2]) > 1000
+    for x, y in zip(a, b, strict=True):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)

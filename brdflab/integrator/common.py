@@ -433,12 +433,17 @@ def light_term(scene, sp: ShadingPoints, u: np.ndarray, mis=None) -> np.ndarray:
     """
     ls = sample_lights(scene, sp, u)
     wo = sp.local(ls.wi)
-    scale = np.maximum(wo[:, 2], 0.0)
+    w = None
     if mis is None:
         f = eval_bsdfs(scene, sp, wo)
     else:
         f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
-        scale *= mis(ls, p_bsdf)
+        w = mis(ls, p_bsdf)
+    if compiled():
+        return load("direct").light_tail(scene.geometry, sp.p, sp.ng, ls.radiance, f, wo, ls.pdf, w, ls.wi, ls.dist)
+    scale = np.maximum(wo[:, 2], 0.0)
+    if w is not None:
+        scale *= w
     scale /= np.where(ls.pdf > 0, ls.pdf, np.inf)
     return light_contributions(scene, sp, ls, f, scale)
 

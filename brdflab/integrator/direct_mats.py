@@ -24,6 +24,7 @@ from brdflab.integrator.common import (
     sample_bsdfs,
     trace_camera,
 )
+from brdflab.kernels import compiled, load
 from brdflab.math.frame import take_rows
 
 
@@ -38,15 +39,20 @@ def bsdf_rays(scene, sp, u: np.ndarray):
         solid-angle pdf with which light sampling would pick that direction (selection included).
     """
     wo, weight, pdf = sample_bsdfs(scene, sp, u)
-    live = np.flatnonzero(any_positive(weight))
-    if len(live) == len(wo):
-        # Every sample carries weight (e.g. diffuse surfaces only): the gathers would copy every row.
-        d, p, ng = sp.world(wo), sp.p, sp.ng
+    g = scene.geometry
+    if compiled():
+        live, d, o, weight, pdf = load("direct").bsdf_ray_batch(g, sp, wo, weight, pdf)
     else:
-        d = sp.world(take_rows(wo, live), live)
-        p, ng, weight, pdf = take_rows(sp.p, live), take_rows(sp.ng, live), take_rows(weight, live), np.take(pdf, live)
-    d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
-    o = scene.geometry.offset_origin(p, ng, d, f32=True)
+        live = np.flatnonzero(any_positive(weight))
+        if len(live) == len(wo):
+            # Every sample carries weight (e.g. diffuse surfaces only): the gathers would copy every row.
+            d, p, ng = sp.world(wo), sp.p, sp.ng
+        else:
+            d = sp.world(take_rows(wo, live), live)
+            p, ng, weight, pdf = (take_rows(sp.p, live), take_rows(sp.ng, live), take_rows(weight, live),
+                                  np.take(pdf, live))
+        d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
+        o = g.offset_origin(p, ng, d, f32=True)
     Le, pdf_light = emission_along(scene, o, d)
     return live, weight, pdf, Le, pdf_light
 

@@ -203,7 +203,7 @@ def for_object(obj: object, kind: str) -> ModuleType | None:
 
 
 #: The kernel modules (one per stage).
-MODULES = ("bsdf", "emitter", "film", "shading")
+MODULES = ("bsdf", "direct", "emitter", "film", "shading")
 
 
 def preload() -> None:

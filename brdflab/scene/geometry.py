@@ -348,11 +348,14 @@ class Geometry:
         return self._occluded32(o32, d32, self.shadow_tmax(dist))
 
     def _occluded32(self, o32: np.ndarray, d32: np.ndarray, tmax: np.ndarray) -> np.ndarray:
-        n = len(o32)
-        dist = np.minimum(tmax, T_INF).astype(np.float32)
+        return self.occluded_f32(o32, d32, np.minimum(tmax, T_INF).astype(np.float32))
+
+    def occluded_f32(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> np.ndarray:
+        """True where something blocks the rays o32 + t·d32, 0 ≤ t ≤ t32, given in Embree's layout: float32,
+        (N, 3) C-ordered, t32 ≤ :data:`T_INF`. The scene must have triangles."""
         t0 = time.perf_counter()  # only the embreex call counts as time in Embree
-        r = self._scene.run(o32, d32, dists=np.ascontiguousarray(dist), query="OCCLUDED")
-        self.stats.add(n, time.perf_counter() - t0)
+        r = self._scene.run(o32, d32, dists=np.ascontiguousarray(t32), query="OCCLUDED")
+        self.stats.add(len(o32), time.perf_counter() - t0)
         return r != -1
 
     # -- robust ray construction ------------------------------------------------------------------
