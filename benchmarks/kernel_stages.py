@@ -8,7 +8,10 @@ One 16 k-sample unit in the middle of each scene's image is traced once; then th
 twin (:mod:`brdflab.kernels`) are timed with both engines, alternately, by thread CPU time (robust on a shared
 machine), median of ``--rounds``: the shading points of the camera hits (``trace_camera`` without its Embree
 call), one light sample per point, the BSDF ``eval`` and ``eval_pdf`` at those directions, and the splat of
-the unit's samples into a 32 × 32 tile film. Embree's share is what neither engine changes.
+the unit's samples into a 32 × 32 tile film; and two whole integrator steps with their ray queries answered
+in advance (nothing occluded, the BSDF rays' hits traced once): the light term (``light_term``: light
+sample, BSDF eval, contributions and shadow rays) and ``direct_mats``' BSDF rays (sample, rays, emission
+found). Embree's share is what neither engine changes.
 """
 
 from __future__ import annotations
@@ -28,7 +31,15 @@ from brdflab import kernels  # noqa: E402
 from brdflab.alloc import tune_allocator  # noqa: E402
 from brdflab.api import load_scene  # noqa: E402
 from brdflab.film import Film  # noqa: E402
-from brdflab.integrator.common import eval_bsdfs, light_dims, point_uniforms, sample_lights, trace_camera  # noqa: E402
+from brdflab.integrator import direct_mats  # noqa: E402
+from brdflab.integrator.common import (  # noqa: E402
+    eval_bsdfs,
+    light_dims,
+    light_term,
+    point_uniforms,
+    sample_lights,
+    trace_camera,
+)
 
 
 def stages(path: Path) -> dict:
@@ -41,9 +52,17 @@ def stages(path: Path) -> dict:
     sy = rng.random(n) * 16 + cam.height // 2
     o, d, tmax = cam.generate_rays(sx, sy)
     rh = scene.geometry.trace(o, d, tmax)
-    scene.geometry.trace = lambda *a, **k: rh  # time only what happens around the Embree call
+    g = scene.geometry
     _, sp = trace_camera(scene, o, d, tmax)
     u = point_uniforms(rng, n, sp, light_dims(scene))
+    ub = point_uniforms(rng, n, sp, 3)
+    traced, real_trace = [], g.trace
+    g.trace = lambda *a: traced.append(real_trace(*a)) or traced[-1]
+    direct_mats.bsdf_rays(scene, sp, ub)
+    # Time only what happens around the Embree calls: their answers are given (camera rays come with a tmax,
+    # the BSDF rays without).
+    g.trace = lambda o_, d_, t_=None: rh if t_ is not None else traced[0]
+    g.occluded_f32 = lambda o_, d_, t_: np.zeros(len(o_), bool)
     wo = sp.local(sample_lights(scene, sp, u).wi)
     values = rng.random((n, 3))
 
@@ -54,7 +73,8 @@ def stages(path: Path) -> dict:
     return {"shading points": lambda: trace_camera(scene, o, d, tmax),
             "light sample": lambda: sample_lights(scene, sp, u),
             "BSDF eval": lambda: eval_bsdfs(scene, sp, wo), "BSDF eval_pdf": lambda: eval_bsdfs(scene, sp, wo, True),
-            "splat": splat}
+            "splat": splat, "light term": lambda: light_term(scene, sp, u),
+            "BSDF rays": lambda: direct_mats.bsdf_rays(scene, sp, ub)}
 
 
 def main(argv: list[str] | None = None) -> int:
