@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.timing import fixed_costs_line, process_seconds
 
     startup_s = process_seconds()
+    t_run = time.perf_counter()
 
     load_plugins(args)
     if args.figures is not None:
@@ -132,6 +133,9 @@ def run(args: argparse.Namespace) -> int:
         print(stats.summary(), file=sys.stderr)
         if per_worker:
             print("\n".join(per_worker), file=sys.stderr)
-        print("  " + fixed_costs_line(startup_s, scene.timings, write_s, process_seconds()), file=sys.stderr)
+        # The whole run by the wall clock: the process's own age (process_seconds) can fall back to its CPU
+        # time, which leaves out the render when workers did it.
+        whole_s = startup_s + time.perf_counter() - t_run
+        print("  " + fixed_costs_line(startup_s, scene.timings, write_s, whole_s), file=sys.stderr)
         print(f"wrote {clean(exr, 120)} and {clean(png.name, 120)}", file=sys.stderr)
     return exit_status(graceful.signum) if graceful.signum else 0

@@ -56,6 +56,27 @@ def test_render_command_imports_no_heavy_library_and_reports_fixed_costs(tmp_pat
     assert (tmp_path / "e.exr").is_file() and (tmp_path / "e.png").is_file()
 
 
+def test_whole_run_counts_the_render_done_by_workers(tmp_path):
+    """The fixed-costs line's "whole run" is wall time: it includes a render the main process only waited for
+    (here a render that idles 2.5 s, longer than the start-up fallback of :func:`brdflab.timing.process_seconds`
+    to CPU time, which is what the line used to print: 0.3 s)."""
+    code = ("import sys, time, brdflab.render as r\n"
+            "real = r.render\n"
+            "def idle(*a, **k):\n"
+            "    time.sleep(2.5)\n"
+            "    return real(*a, **k)\n"
+            "r.render = idle\n"
+            "from brdflab.cli.main import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    scene = ROOT / "scenes" / "envlit" / "envlit_ems.xml"
+    out = subprocess.run([sys.executable, "-c", code, "--engine", "numpy", "render", str(scene), "--spp", "1",
+                          "--workers", "1", "-o", str(tmp_path / "e.exr")], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    line = next(ln for ln in out.stderr.splitlines() if "fixed costs" in ln)
+    assert float(line.split("whole run ")[1].split(" s")[0]) >= 2.5, line
+
+
 def test_write_images_matches_separate_writes(tmp_path):
     rng = np.random.default_rng(1701)
     img = (rng.random((37, 53, 3)) * 1.3).astype(np.float32)
