@@ -334,11 +334,12 @@ def test_area_light_sampling_kernel_is_bit_identical(scene):
 
 @pytest.mark.parametrize("scene", ["scenes/cbox/cbox_spheres.xml", "scenes/checker/checker_point.xml",
                                    "scenes/veach/veach_mis.xml", "scenes/envlit/envlit_mis.xml",
-                                   "scenes/lights/mixed_lights_mis.xml"])
+                                   "scenes/lights/mixed_lights_mis.xml", "scenes/lights/polygon_lights_mis.xml"])
 def test_direct_integrator_kernels_are_bit_identical(scene, monkeypatch):
     """The light term's contributions and shadow rays (with and without MIS weights) and the BSDF rays of
-    ``direct_mats`` (:mod:`brdflab.kernels.direct`), given the same light and BSDF samples: every light kind,
-    occluders, the environment's infinite distance, delta lights, points below the horizon."""
+    ``direct_mats`` with the emission they find (:mod:`brdflab.kernels.direct`), given the same light and BSDF
+    samples: every light kind, occluders, the environment's infinite distance, delta lights, points below the
+    horizon, fused light sets (Veach's smooth spheres, polygons) hit on either side."""
     import brdflab.integrator.common as common
     import brdflab.integrator.direct_mats as mats
     import brdflab.scene.geometry as geometry
@@ -370,6 +371,8 @@ def test_direct_integrator_kernels_are_bit_identical(scene, monkeypatch):
     a, b = out["numpy"], out["numba"]
     assert kernels.load("direct").T_INF == geometry.T_INF
     assert (a[0] > 0).any(axis=1).sum() > 1000 and len(a[2]) > 1000
+    if common.scene_tables(sc).has_emitter_meshes:  # BSDF rays can find area lights (not the point light)
+        assert (a[5] > 0).any(axis=1).sum() > 100
     for x, y in zip(a, b, strict=True):
         assert x.dtype == y.dtype
         np.testing.assert_array_equal(x, y)

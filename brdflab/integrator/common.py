@@ -461,11 +461,15 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     g = scene.geometry
     rh = g.trace(o, d)
     m = len(o)
-    Le = np.zeros((m, 3), order="F")
-    pdf = np.zeros(m)
-    em = np.take(scene_tables(scene).tri_emitter, rh.prim)
-    hit = np.flatnonzero(em >= 0)
     fused = area_light_set(scene)
+    if fused is not None and compiled() and m:
+        Le, pdf = load("direct").light_set_emission(g, rh, d, scene_tables(scene).tri_emitter, fused)
+        hit = ()
+    else:
+        Le = np.zeros((m, 3), order="F")
+        pdf = np.zeros(m)
+        em = np.take(scene_tables(scene).tri_emitter, rh.prim)
+        hit = np.flatnonzero(em >= 0)
     if len(hit):
         # Only the rays that found an emitter need their hit's normal (and uv, for textured emitters).
         h = g.surface(rh, hit, positions=False, uv=fused is None)

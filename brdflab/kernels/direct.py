@@ -14,6 +14,12 @@ the same order, so the two engines agree to the bit:
   sample weight has a positive channel, the direction to world space (:meth:`NormalFrames.to_world
   <brdflab.math.frame.NormalFrames.to_world>`), renormalised, and the ray's origin off the surface, with the
   weight and pdf of those points.
+* :func:`emission`: what those rays find when the scene's area lights are one
+  :class:`~brdflab.emitter.area.AreaLightSet` (:func:`~brdflab.integrator.common.emission_along`): the light's
+  radiance where the ray hit its front side and the density with which light sampling picks that direction,
+  from the hit's triangle, barycentrics and distance (the shading normal as
+  :meth:`~brdflab.scene.geometry.Geometry.surface` reconstructs it, then
+  :meth:`~brdflab.emitter.area.AreaLightSet.eval_pdf_hit`).
 """
 
 from __future__ import annotations
@@ -22,7 +28,21 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import BOOL, F8, IN1, IN2, OUT1, OUT1_F4, OUT2, OUT2_F4, OUT_IDX, inline, kernel
+from brdflab.kernels.jit import (
+    BOOL,
+    F8,
+    IDX,
+    IN1,
+    IN1_F4,
+    IN2,
+    OUT1,
+    OUT1_F4,
+    OUT2,
+    OUT2_F4,
+    OUT_IDX,
+    inline,
+    kernel,
+)
 
 #: Embree's infinity, :data:`brdflab.scene.geometry.T_INF` (a literal here: the prebuilt kernels' key hashes
 #: this folder's sources only; ``tests/test_kernels.py`` checks that the two are equal).
@@ -104,6 +124,46 @@ def bsdf_rays(wo, weight, pdf, n, sign, a, p, ng, eps, live, d, pdf_live, weight
     live[m] = count
 
 
+@kernel(IDX, IN1_F4, IN1_F4, IN1_F4, IN2, IDX, IN2, IN2, BOOL, IN2, IN1, OUT2, OUT1)
+def emission(prim, bu32, bv32, t32, d, tri_emitter, face_n, tri_nrm, smooth, rad, pdf_scale, le, pdf):
+    """Fill L_e and the light-sampling pdf of each ray (0 where it found no light or its back side)."""
+    for i in range(prim.shape[0]):
+        k = prim[i]
+        e = tri_emitter[k]  # a miss (−1) reads the table's last entry, −1
+        if e < 0:
+            le[i, 0] = le[i, 1] = le[i, 2] = 0.0
+            pdf[i] = 0.0
+            continue
+        nx, ny, nz = face_n[0, k], face_n[1, k], face_n[2, k]
+        if smooth:
+            u, v = np.float64(bu32[i]), np.float64(bv32[i])
+            mx = tri_nrm[0, k] + tri_nrm[3, k] * u + tri_nrm[6, k] * v
+            my = tri_nrm[1, k] + tri_nrm[4, k] * u + tri_nrm[7, k] * v
+            mz = tri_nrm[2, k] + tri_nrm[5, k] * u + tri_nrm[8, k] * v
+            ln = math.sqrt(mx * mx + my * my + mz * mz)
+            if ln > 0:
+                inv = 1.0 / ln
+                nx, ny, nz = mx * inv, my * inv, mz * inv
+        cos_l = -(nx * d[i, 0] + ny * d[i, 1] + nz * d[i, 2])
+        front = cos_l > 0
+        for j in range(3):
+            le[i, j] = rad[j, e] * (1.0 if front else 0.0)
+        dist = np.float64(t32[i])
+        p = dist * dist * pdf_scale[e] / cos_l
+        pdf[i] = p if front and p < np.inf else 0.0
+
+
+def light_set_emission(g, rh, d: np.ndarray, tri_emitter: np.ndarray, lights) -> tuple[np.ndarray, np.ndarray]:
+    """(L_e (N, 3), pdf (N,)) found by the rays ``d`` of the trace ``rh`` in a scene whose area lights form the
+    :class:`~brdflab.emitter.area.AreaLightSet` ``lights`` (``emission_along`` before the environment), compiled."""
+    n = len(d)
+    le, pdf = np.empty((n, 3), order="F"), np.empty(n)
+    smooth = g.tri_nrm is not None
+    emission(rh.prim, rh.u, rh.v, rh.t, _f8(d), tri_emitter, g.face_normal_cols, g.tri_nrm if smooth else _NO_NRM,
+             smooth, lights._emitter_radiance, lights._emitter_pdf_scale, le, pdf)
+    return le, pdf
+
+
 def light_tail(g, p: np.ndarray, ng: np.ndarray, radiance: np.ndarray, f: np.ndarray, wo: np.ndarray,
                pdf: np.ndarray, w: np.ndarray | None, wi: np.ndarray, dist: np.ndarray) -> np.ndarray:
     """(M, 3) contributions of the light samples (``light_contributions``, visibility included), compiled;
@@ -138,3 +198,4 @@ def _f8(a: np.ndarray) -> np.ndarray:
 
 
 _NO_W = np.zeros(0)
+_NO_NRM = np.zeros((9, 0))
