@@ -43,6 +43,7 @@ from brdflab.kernels.jit import (
     inline,
     kernel,
 )
+from brdflab.kernels.shading import vertex_normal
 
 #: Embree's infinity, :data:`brdflab.scene.geometry.T_INF` (a literal here: the prebuilt kernels' key hashes
 #: this folder's sources only; ``tests/test_kernels.py`` checks that the two are equal).
@@ -136,14 +137,9 @@ def emission(prim, bu32, bv32, t32, d, tri_emitter, face_n, tri_nrm, smooth, rad
             continue
         nx, ny, nz = face_n[0, k], face_n[1, k], face_n[2, k]
         if smooth:
-            u, v = np.float64(bu32[i]), np.float64(bv32[i])
-            mx = tri_nrm[0, k] + tri_nrm[3, k] * u + tri_nrm[6, k] * v
-            my = tri_nrm[1, k] + tri_nrm[4, k] * u + tri_nrm[7, k] * v
-            mz = tri_nrm[2, k] + tri_nrm[5, k] * u + tri_nrm[8, k] * v
-            ln = math.sqrt(mx * mx + my * my + mz * mz)
-            if ln > 0:
-                inv = 1.0 / ln
-                nx, ny, nz = mx * inv, my * inv, mz * inv
+            mx, my, mz, ok = vertex_normal(tri_nrm, k, np.float64(bu32[i]), np.float64(bv32[i]))
+            if ok:
+                nx, ny, nz = mx, my, mz
         cos_l = -(nx * d[i, 0] + ny * d[i, 1] + nz * d[i, 2])
         front = cos_l > 0
         for j in range(3):

@@ -13,7 +13,21 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1_F4, IN2, OUT1, OUT2, kernel
+from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1_F4, IN2, OUT1, OUT2, inline, kernel
+
+
+@inline
+def vertex_normal(tri_nrm, k, u, v):
+    """The vertex normals of triangle ``k`` interpolated at barycentrics (u, v) and renormalised, and whether
+    that worked (length > 0), as ``Geometry._shading_normals`` computes them."""
+    mx = tri_nrm[0, k] + tri_nrm[3, k] * u + tri_nrm[6, k] * v
+    my = tri_nrm[1, k] + tri_nrm[4, k] * u + tri_nrm[7, k] * v
+    mz = tri_nrm[2, k] + tri_nrm[5, k] * u + tri_nrm[8, k] * v
+    ln = math.sqrt(mx * mx + my * my + mz * mz)
+    if ln > 0:
+        inv = 1.0 / ln
+        return mx * inv, my * inv, mz * inv, True
+    return mx, my, mz, False
 
 
 @kernel(IDX, IDX, IN1_F4, IN1_F4, FLAGS, IN2, IN2, IN2, IN2, IN2, BOOL, OUT2, OUT2, OUT2, OUT2, OUT1, OUT1, OUT2)
@@ -28,13 +42,9 @@ def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, wa
             ng[i, j] = face_n[j, k]
             ns[i, j] = face_n[j, k]
         if smooth[i]:
-            mx = tri_nrm[0, k] + tri_nrm[3, k] * u + tri_nrm[6, k] * v
-            my = tri_nrm[1, k] + tri_nrm[4, k] * u + tri_nrm[7, k] * v
-            mz = tri_nrm[2, k] + tri_nrm[5, k] * u + tri_nrm[8, k] * v
-            ln = math.sqrt(mx * mx + my * my + mz * mz)
-            if ln > 0:
-                inv = 1.0 / ln
-                ns[i, 0], ns[i, 1], ns[i, 2] = mx * inv, my * inv, mz * inv
+            mx, my, mz, ok = vertex_normal(tri_nrm, k, u, v)
+            if ok:
+                ns[i, 0], ns[i, 1], ns[i, 2] = mx, my, mz
         if want_uv:
             if tri_uv.shape[0] == 6:
                 uv[i, 0] = tri_uv[0, k] + tri_uv[2, k] * u + tri_uv[4, k] * v
