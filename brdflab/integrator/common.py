@@ -433,9 +433,8 @@ def light_term(scene, sp: ShadingPoints, u: np.ndarray, mis=None) -> np.ndarray:
     """
     ls = sample_lights(scene, sp, u)
     wo = sp.local(ls.wi)
-    w = None
     if mis is None:
-        f = eval_bsdfs(scene, sp, wo)
+        f, w = eval_bsdfs(scene, sp, wo), None
     else:
         f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
         w = mis(ls, p_bsdf)
@@ -458,21 +457,29 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     """Trace rays (o, d); return the emitted radiance they find (area light or environment) and the
     solid-angle density with which *light sampling* would have produced that direction (selection
     probability included), for MIS."""
-    g = scene.geometry
-    rh = g.trace(o, d)
-    m = len(o)
+    rh = scene.geometry.trace(o, d)
     fused = area_light_set(scene)
-    if fused is not None and compiled() and m:
-        Le, pdf = load("direct").light_set_emission(g, rh, d, scene_tables(scene).tri_emitter, fused)
-        hit = ()
+    if fused is not None and compiled() and len(o):
+        Le, pdf = load("direct").light_set_emission(scene.geometry, rh, d, scene_tables(scene).tri_emitter, fused)
     else:
-        Le = np.zeros((m, 3), order="F")
-        pdf = np.zeros(m)
-        em = np.take(scene_tables(scene).tri_emitter, rh.prim)
-        hit = np.flatnonzero(em >= 0)
+        Le, pdf = _area_emission(scene, rh, d, fused)
+    env = scene.environment
+    if env is not None:
+        miss = np.flatnonzero(~rh.valid)
+        if len(miss):
+            Le[miss], pdf_env = env.eval_pdf(take_rows(d, miss))
+            pdf[miss] = pdf_env * scene.emitter_pmf[scene.emitters.index(env)]
+    return Le, pdf
+
+
+def _area_emission(scene, rh, d: np.ndarray, fused: AreaLightSet | None) -> tuple[np.ndarray, np.ndarray]:
+    """(L_e, light-sampling pdf) of the area lights hit in the trace ``rh`` of rays ``d`` (0 elsewhere)."""
+    Le, pdf = np.zeros((len(d), 3), order="F"), np.zeros(len(d))
+    em = np.take(scene_tables(scene).tri_emitter, rh.prim)
+    hit = np.flatnonzero(em >= 0)
     if len(hit):
         # Only the rays that found an emitter need their hit's normal (and uv, for textured emitters).
-        h = g.surface(rh, hit, positions=False, uv=fused is None)
+        h = scene.geometry.surface(rh, hit, positions=False, uv=fused is None)
         em_hit, d_hit = np.take(em, hit), take_rows(d, hit)
         if fused is not None:
             Le[hit], pdf[hit] = fused.eval_pdf_hit(em_hit, h.t, h.ns, d_hit)
@@ -482,13 +489,6 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
                 ns, d_e = rows(h.ns, sel), rows(d_hit, sel)
                 Le[at] = emitter.eval_hit(ns, rows(h.uv, sel), d_e)
                 pdf[at] = emitter.pdf_hit(rows(h.t, sel), ns, d_e) * scene.emitter_pmf[e]
-    env = scene.environment
-    if env is not None:
-        miss = np.flatnonzero(~rh.valid)
-        if len(miss):
-            Le_env, pdf_env = env.eval_pdf(take_rows(d, miss))
-            Le[miss] = Le_env
-            pdf[miss] = pdf_env * scene.emitter_pmf[scene.emitters.index(env)]
     return Le, pdf
 
 
