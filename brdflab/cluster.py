@@ -21,7 +21,7 @@ A Dask task carries :data:`TASK_UNITS` consecutive units and returns their tile 
 array (the per-unit counters beside it). At most :data:`WINDOW` tasks per worker thread are submitted
 ahead of the unit being merged: a stop (Ctrl-C, ``time_limit``) cancels at most that many, and results
 never pile up in the workers' memory. Per-task overhead on this machine (2 cores shared by the
-scheduler, the client and the workers) is a few milliseconds, against ~150 ms of work in a 32-unit
+scheduler, the client and the workers) is a few milliseconds, against ~150 ms of work in an 8-unit
 Cornell-box task; see the README's "Scale-out" section for the measurements.
 
 The scene reaches the workers in one of two ways (``scene_transfer``):
@@ -98,7 +98,7 @@ from brdflab.kernels import engine
 #: Environment variable holding the default cluster address.
 ENV = "BRDFLAB_CLUSTER"
 #: (pass, tile) units per Dask task (~0.5 M camera samples, ~150 ms on the Cornell box; see the module doc).
-TASK_UNITS = 32
+TASK_UNITS = 8
 #: Tasks submitted per worker thread ahead of the unit being merged.
 WINDOW = 4
 #: How the scene reaches the workers.

@@ -18,11 +18,17 @@ futures and pipes took 9 % of the two cores), and writes their tile films into a
 task (mapped before the workers fork) instead of pickling them through a pipe. Cornell box, 2 workers:
 main-process CPU 0.92 s per render with one unit per task, 0.35 s with 8, 0.21 s with shared slots. At
 most :data:`IN_FLIGHT` tasks per worker are queued, so a stop request (Ctrl-C, ``time_limit``) takes
-effect within about one task (8 units, ~40 ms on the bench scenes).
+effect within about one task (2 units of 65 k samples, ~0.1 s on the bench scenes).
 
-Units hold about :data:`UNIT_SAMPLES` camera samples: small enough that a batch's ~20 live float64 columns
-stay in the 2 MiB per-core L2 cache (measured on the Cornell box, one worker: 65 k samples 1.71 M
-samples/s, 16 k 1.97 M, 4 k 1.60 M, where the per-call overhead takes over).
+Units hold about :data:`UNIT_SAMPLES` (65 536) camera samples; a 64-spp pass has tiles of 32 × 32 pixels.
+Every unit pays fixed costs: the Python calls between its kernels (~150), and the scene's tables (light
+triangles, BVH nodes, triangle records) reloaded into the cache after the unit's sample columns pushed them
+out (the light-sample kernel takes 1.0 ms on 16 k points with the tables in cache, 1.8 ms without; this
+machine's cache keeps about 2–4 MiB). Fewer, larger units won on every scene measured (2026-12-02, one
+worker, 64 spp, alternating, 3–5 rounds, 16 × 16 against 32 × 32 pixel tiles): compiled engine veach_mats
+1.05×, table_ems 1.06×, cbox_conductors_ems 1.07×, veach_mis 1.16×; NumPy engine veach_mis 1.07×, table_ems
+1.09×. (With the NumPy engine only, on a machine with 2 MiB of L2 per core, 16 k had been best: 65 k 1.71 M
+samples/s, 16 k 1.97 M.)
 
 Pass sizes are 1, 1, 2, 4, … (doubling up to ``max_pass``), then ``max_pass`` each, so every power of
 two up to the final count is a pass boundary: a progressive run of 256 spp yields the 1, 2, 4, …, 128

@@ -27,16 +27,16 @@ from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
 from brdflab.scene.geometry import RayStats
 
-#: Target number of camera samples per work unit (a batch's temporaries stay in the L2 cache).
-UNIT_SAMPLES = 1 << 14
+#: Target number of camera samples per work unit (see :mod:`brdflab.render`: per-unit costs against cache).
+UNIT_SAMPLES = 1 << 16
 
 
 #: Tasks queued per worker ahead of the one being merged.
 IN_FLIGHT = 3
 
 
-#: Units per task sent to a forked worker (fewer messages for the main process to handle).
-TASK_UNITS = 8
+#: Units per task sent to a forked worker (fewer messages for the main process to handle: 131 k samples).
+TASK_UNITS = 2
 
 
 #: Workers are forked processes on Linux; elsewhere threads (macOS system libraries are not fork-safe).

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from brdflab.imageio import read_exr
 from brdflab.render import render
@@ -36,31 +37,67 @@ def replicate_blocks(path: Path, integrator: str, width: int, spp: int, reps: in
     return np.array(out, dtype=np.float64)
 
 
-def assert_agree(path: Path, width: int = 96, spp: int = 8, reps: int = 12, integrators=INTEGRATORS):
-    """Per 16×16 block, |mean_a − mean_b| ≤ 4 combined standard errors; image means likewise (and within 2 %)."""
-    blocks = {name: replicate_blocks(path, name, width, spp, reps) for name in integrators}
-    stats = {n: (b.mean(axis=0), b.std(axis=0, ddof=1) / np.sqrt(reps)) for n, b in blocks.items()}
-    names = list(integrators)
+#: Family-wise false-alarm rate of :func:`agreement_failures` for one pair of integrators.
+AGREE_ALPHA = 1e-3
+
+
+def welch_p(a: np.ndarray, b: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Two-sided p-values of Welch's t-test that ``a`` and ``b`` (runs along ``axis``) have equal means,
+    with the Welch–Satterthwaite degrees of freedom (few runs: a normal z would understate the tails)."""
+    na, nb = a.shape[axis], b.shape[axis]
+    va, vb = a.var(axis=axis, ddof=1) / na, b.var(axis=axis, ddof=1) / nb
+    se2, diff = va + vb, np.abs(a.mean(axis=axis) - b.mean(axis=axis))
+    t = diff / np.sqrt(np.where(se2 > 0, se2, 1.0))
+    df = se2**2 / np.where(se2 > 0, va**2 / (na - 1) + vb**2 / (nb - 1), 1.0)
+    # Without spread (blocks that no light reaches): equal means agree, others do not.
+    return np.where(se2 > 0, 2 * stats.t.sf(t, np.maximum(df, 1.0)), np.where(diff == 0, 1.0, 0.0))
+
+
+def agreement_failures(blocks: dict[str, np.ndarray], alpha: float = AGREE_ALPHA) -> list[str]:
+    """Why the integrators' block means (runs, by, bx, 3) disagree, for each pair: a block and channel whose
+    Welch p-value is below ``alpha`` / (number of blocks and channels) (Bonferroni), or image means with
+    p < ``alpha`` or more than 2 % apart. Empty when all agree."""
+    out = []
+    names = list(blocks)
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            (ma, sa), (mb, sb) = stats[a], stats[b]
-            se = np.sqrt(sa**2 + sb**2)
-            z = np.abs(ma - mb) / np.maximum(se, 1e-12)
-            # Blocks with no signal in both (exactly zero everywhere) are trivially equal.
-            z[(ma == 0) & (mb == 0)] = 0
-            assert z.max() <= 4.0, f"{path.name}: {a} vs {b}, worst block z = {z.max():.2f}"
-            # Image means: within 4 standard errors (from the spread of the independent runs' means) and 2 %.
+            p = welch_p(blocks[a], blocks[b])
+            if p.min() < alpha / p.size:
+                out.append(f"{a} vs {b}: block p = {p.min():.2g} < {alpha:g}/{p.size}")
             ia, ib = blocks[a].mean(axis=(1, 2, 3)), blocks[b].mean(axis=(1, 2, 3))
-            se_mean = np.sqrt(ia.var(ddof=1) / len(ia) + ib.var(ddof=1) / len(ib))
-            diff = abs(ia.mean() - ib.mean())
-            assert diff <= 4 * se_mean and diff < 0.02 * ib.mean(), \
-                f"{path.name}: {a} {ia.mean():.5f} vs {b} {ib.mean():.5f} (se {se_mean:.5f})"
+            pm = float(welch_p(ia, ib))
+            if pm < alpha or abs(ia.mean() - ib.mean()) >= 0.02 * ib.mean():
+                out.append(f"{a} {ia.mean():.5f} vs {b} {ib.mean():.5f} (image mean p = {pm:.2g})")
+    return out
+
+
+def assert_agree(path: Path, width: int = 96, spp: int = 4, reps: int = 24, integrators=INTEGRATORS):
+    """Per 32×32 block and image means, the integrators agree (:func:`agreement_failures`); returns the blocks.
+
+    False alarms, measured on cbox_spheres (2026-12-02; smallest Bonferroni-adjusted p of three pairs per
+    seed set): 24 runs of 4 spp in 32-pixel blocks, none in 20 seed sets (smallest 0.08). In 16-pixel blocks
+    one in 40 (5·10⁻⁴): BSDF sampling finds the small light rarely, and a block whose runs all miss it looks
+    precise and dark (Welch's t assumes normal run means). The former rule, |z| ≤ 4 with 12 runs of 8 spp
+    (a normal z for an 11-degree-of-freedom t), failed on 2 of 20 seed sets (z 4.08, 4.40)."""
+    blocks = {name: replicate_blocks(path, name, width, spp, reps, block=32) for name in integrators}
+    failures = agreement_failures(blocks)
+    assert not failures, f"{path.name}: " + "; ".join(failures)
+    return blocks
 
 
 @pytest.mark.parametrize("rel", ["scenes/cbox/cbox_spheres.xml", "scenes/cbox/cbox_substrate.xml",
                                  "scenes/envlit/envlit_mis.xml"])
 def test_integrators_agree_on_own_scenes(rel):
-    assert_agree(ROOT / rel)
+    blocks = assert_agree(ROOT / rel)
+    # Negative controls on the same runs: a 3 % bias of one integrator in the block it renders with the least
+    # relative noise, or 3 % over the whole image, must be found.
+    name = "direct_mis"
+    local = blocks[name].copy()
+    rel_se = local.std(axis=0, ddof=1) / np.maximum(local.mean(axis=0), 1e-12)
+    j = np.unravel_index(np.argmin(np.where(local.mean(axis=0) > 0, rel_se, np.inf)), local.shape[1:])
+    local[(slice(None),) + j[:2]] *= 1.03
+    assert agreement_failures({**blocks, name: local}), "a local 3 % bias went unnoticed"
+    assert agreement_failures({**blocks, name: blocks[name] * 1.03}), "a global 3 % bias went unnoticed"
 
 
 def test_white_furnace_environment():
