@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.kernels import compiled, load
+from brdflab.kernels import compiled, load, twin
 from brdflab.math.frame import sparse_combination
 from brdflab.math.transform import Transform
 from brdflab.scene.properties import PropertyList
@@ -76,22 +76,31 @@ class Camera:
             raise props.error("farClip", f"'farClip' ({far}) must be greater than 'nearClip' ({near})")
         return cls(w, h, fov, near, far, props.get_transform("toWorld", Transform()))
 
+    #: The compiled twin of :meth:`unit_rays` (:mod:`brdflab.kernels.film`); subclasses take the NumPy path.
+    kernel = "perspective"
+
+    def ray_coefficients(self) -> tuple[float, float, float, float]:
+        """(c_x, t_x, c_y, t_y) of the affine maps x = c_x·p_x + t_x and y = c_y·p_y + t_y from continuous
+        pixel positions to the image plane at distance 1 (spec §4): x = (1 − 2 p_x/W)·T, y = (1 − 2 p_y/H)·T/a
+        with T = tan(fov/2) and a = W/H."""
+        a = self.width / self.height
+        t = np.tan(np.radians(self.fov) * 0.5)
+        return float(-2.0 * t / self.width), float(t), float(-2.0 * t / (a * self.height)), float(t / a)
+
     def generate_rays(self, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays through continuous pixel positions; returns (origins, unit directions, tmax).
 
         The origins are float32 and C-ordered, the layout Embree takes (they serve only as ray origins);
         the directions are float64, Fortran-ordered.
         """
-        a = self.width / self.height
-        t = np.tan(np.radians(self.fov) * 0.5)
+        cx, tx, cy, ty = self.ray_coefficients()
         xf = self.to_world if self.to_world is not None else Transform()
         m, origin = xf.matrix, xf.origin()
-        # x = (1 − 2 p_x/W)·T and y = (1 − 2 p_y/H)·T/a as affine maps; ‖(x, y, 1)‖ = 1/d̂_z.
-        x = px * (-2.0 * t / self.width)
-        x += t
-        y = py * (-2.0 * t / (a * self.height))
-        y += t / a
-        length = x * x
+        x = px * cx
+        x += tx
+        y = py * cy
+        y += ty
+        length = x * x  # ‖(x, y, 1)‖ = 1/d̂_z
         length += y * y
         length += 1.0
         np.sqrt(length, out=length)
@@ -109,6 +118,20 @@ class Camera:
             o[:, j] = oc
         length *= self.far - self.near
         return o, d, length
+
+    @twin("film", "unit_rays")
+    def unit_rays(self, jitter: np.ndarray, px: np.ndarray, py: np.ndarray, x0: int,
+                  y0: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The camera rays of a render unit: sample positions s = ξ + pixel + tile origin for ``jitter``
+        (2, N) in [0, 1) (overwritten) and the pixel columns and rows ``px``, ``py`` of the tile; returns
+        (s_x, s_y, origins, directions, tmax) as :meth:`generate_rays`."""
+        sx = jitter[0]
+        sx += px
+        sx += x0
+        sy = jitter[1]
+        sy += py
+        sy += y0
+        return (sx, sy, *self.generate_rays(sx, sy))
 
 
 class Filter:

@@ -43,9 +43,16 @@ TASK_UNITS = 2
 FORK_WORKERS = sys.platform.startswith("linux")
 
 
+#: Tiles per pass that small images still get (so that every worker has units), where 16-pixel tiles allow.
+MIN_TILES = 8
+
+
 def tiles_for(width: int, height: int, pass_spp: int) -> list[tuple[int, int, int, int]]:
-    """Square tiles (x0, y0, w, h) sized so each unit holds about :data:`UNIT_SAMPLES` samples."""
-    side = int(np.clip(math.sqrt(UNIT_SAMPLES / pass_spp), 16, 256)) // 8 * 8
+    """Square tiles (x0, y0, w, h) sized so each unit holds about :data:`UNIT_SAMPLES` samples, and a pass
+    has at least :data:`MIN_TILES` tiles where tiles of 16 pixels allow (the layout depends on the image and
+    the pass only, never on the number of workers)."""
+    side = min(math.sqrt(UNIT_SAMPLES / pass_spp), math.sqrt(width * height / MIN_TILES))
+    side = int(np.clip(side, 16, 256)) // 8 * 8
     return [(x, y, min(side, width - x), min(side, height - y))
             for y in range(0, height, side) for x in range(0, width, side)]
 
@@ -72,14 +79,7 @@ def _render_unit_inner(scene, pass_index: int, tile_index: int, tile: tuple[int,
     rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence([seed, pass_index, tile_index])))
     n = w * h * spp
     px, py = _pixel_offsets(w, h, spp)
-    jitter = rng.random((2, n))
-    sx = jitter[0]
-    sx += px
-    sx += x0
-    sy = jitter[1]
-    sy += py
-    sy += y0
-    o, d, tmax = cam.generate_rays(sx, sy)
+    sx, sy, o, d, tmax = cam.unit_rays(rng.random((2, n)), px, py, x0, y0)
     L = scene.integrator.li(scene, o, d, tmax, rng)
     film = Film(cam.width, cam.height, scene.filter, x0, y0, w, h)
     # Two reductions over the whole batch find the (rare) non-finite or negative samples; only then

@@ -128,11 +128,8 @@ class _PixelNoise:
 
 
 @pytest.mark.parametrize(("progressive", "workers"), [(False, 1), (True, 1), (True, 2)])
-def test_render_merge_mean_and_variance(tmp_path, monkeypatch, progressive, workers):
-    from brdflab import workers as pool
+def test_render_merge_mean_and_variance(tmp_path, progressive, workers):
     from brdflab.render import render
-
-    monkeypatch.setattr(pool, "UNIT_SAMPLES", 1 << 12)  # small units: several tiles per pass on this small image
     from brdflab.scene.loader import load_scene
 
     body = ('<integrator type="normals"/><camera type="perspective"><float name="fov" value="40"/>'

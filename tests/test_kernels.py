@@ -376,3 +376,40 @@ def test_direct_integrator_kernels_are_bit_identical(scene, monkeypatch):
     for x, y in zip(a, b, strict=True):
         assert x.dtype == y.dtype
         np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("to_world", ["none", "axis", "lookat"])
+def test_camera_rays_kernel_is_bit_identical(to_world):
+    """Camera.unit_rays through both engines gives the same bits: positions, float32 origins, directions,
+    tmax; for a camera without transform, an axis-aligned one (zero matrix entries skipped) and a general
+    look-at; a changed rounding (one more ulp in c_x) must show (negative control)."""
+    from brdflab.film import Camera
+    from brdflab.math.transform import Transform, lookat, translate
+
+    xf = {"none": None, "axis": Transform(translate(np.array([0.5, -2.0, 3.0]))),
+          "lookat": Transform(lookat(np.array([1.0, 2.0, 3.0]), np.array([0.2, -0.1, 0.4]),
+                                     np.array([0.1, 1.0, 0.3])))}[to_world]
+    cam = Camera(96, 72, 37.5, 1e-3, 250.0, xf)
+    assert kernels.for_object(cam, "film") is not None
+    rng = np.random.default_rng(11)
+    n = 5000
+    jitter = rng.random((2, n))
+    jitter[:, :4] = [[0.0, 1 - 2**-53, 0.5, 0.0], [0.0, 0.0, 1 - 2**-53, 0.25]]
+    px, py = rng.integers(0, 32, n).astype(np.float64), rng.integers(0, 32, n).astype(np.float64)
+    with kernels.use_engine("numpy"):
+        ref = cam.unit_rays(jitter.copy(), px, py, 64, 40)
+    with kernels.use_engine("numba"):
+        got = cam.unit_rays(jitter.copy(), px, py, 64, 40)
+    for a, b in zip(got, ref, strict=True):
+        assert a.dtype == b.dtype and a.shape == b.shape
+        np.testing.assert_array_equal(a, b)
+    assert got[2].flags.c_contiguous and got[3].flags.f_contiguous
+    # Negative control: the kernel given a c_x one ulp off differs from the specification.
+    from brdflab.kernels import film as kfilm
+
+    coef = np.array([*cam.ray_coefficients(), cam.near, cam.far - cam.near])
+    coef[0] = np.nextafter(coef[0], 0)
+    out = [np.empty(n), np.empty(n), np.empty((n, 3), np.float32), np.empty((n, 3), order="F"), np.empty(n)]
+    xfm = xf if xf is not None else Transform()
+    kfilm.camera_rays(jitter.copy(), px, py, 64.0, 40.0, coef, xfm.matrix, xfm.origin(), *out)
+    assert not np.array_equal(out[3], ref[3])
