@@ -29,7 +29,7 @@ import sys
 import warnings
 
 from brdflab import __version__
-from brdflab.cli.signals import exit_status, install_default_handlers
+from brdflab.cli.signals import exit_status, ignore_while_exiting, install_default_handlers
 from brdflab.errors import EXIT_USAGE, MESSAGE_CHARS, BrdflabError, Interrupted, clean
 from brdflab.kernels import ENGINES, engine, set_engine
 
@@ -146,5 +146,16 @@ def main(argv: list[str] | None = None) -> int:
     return int(status or 0)
 
 
+def run() -> None:
+    """The ``brdflab`` console entry point: :func:`main`, then exit with its status.
+
+    An exit status decided by a signal (130, 143, 129) is kept through the interpreter's shutdown:
+    :func:`brdflab.cli.signals.ignore_while_exiting`.
+    """
+    status = main()
+    ignore_while_exiting(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -8,7 +8,10 @@ Exit status of an interrupted run: 128 + the signal number — 130 (SIGINT), 143
 * During a render, :class:`GracefulStop`: the first signal asks the render to stop at the next pass
   boundary (the completed passes are written as the ``_partial_<N>spp`` pair); a second signal exits at
   once — the worker processes are killed, temporaries of an image write in progress are removed and
-  the process leaves with ``os._exit`` (no interpreter shutdown that could wait on a worker).
+  the process leaves with ``os._exit`` (no interpreter shutdown that could wait on a worker). Once the
+  stopped render is written its exit status is decided: a signal after that still exits at once, with
+  that status (:func:`_exit_decided`), and :func:`ignore_while_exiting` keeps a signal during the
+  interpreter's shutdown (which restores the default handlers) from turning it into death by signal.
 """
 
 from __future__ import annotations
@@ -87,6 +90,37 @@ class GracefulStop:
         return self
 
     def __exit__(self, *exc) -> None:
+        stopped = self.stop.is_set() and self.signum is not None
         for sig, prev in self._previous.items():
-            signal.signal(sig, prev)
+            signal.signal(sig, _exit_decided(self.signum) if stopped else prev)
         self._previous.clear()
+
+
+def _exit_decided(first: int):
+    """A handler for after a stopped render was written: leave at once with the first signal's status."""
+
+    def handler(signum, frame) -> None:
+        try:
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+        os._exit(exit_status(first))
+
+    return handler
+
+
+def ignore_while_exiting(status: int) -> None:
+    """Before the interpreter shuts down with ``status``: if a signal decided it, ignore further signals.
+
+    The shutdown restores the default handlers of Python-level ones, so a second SIGTERM arriving then
+    would kill the process (status -15 to a parent) instead of letting it exit 143. Ignored signals stay
+    ignored through the shutdown, which has nothing left to write or wait for.
+    """
+    if status in {exit_status(s) for s in SIGNALS} and _in_main_thread():
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        for sig in SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)

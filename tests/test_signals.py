@@ -205,3 +205,48 @@ def test_signal_during_the_write(tmp_path, signals, code):
         assert (read_png(png) == srgb_bytes(read_exr(exr))).all()
     else:
         assert (exr.read_bytes(), png.read_bytes()) == old
+
+
+SIGNAL_DURING_SHUTDOWN = SIGNAL_DURING_WRITE.replace("sys.exit(main([", "sys.argv = ([sys.argv[0], ").replace(
+    '"--quiet"]))', '"--quiet"])').replace(
+    "from brdflab.cli.main import main", "import brdflab.cli.main as cm\nfrom brdflab.cli.main import main") + """
+from time import sleep as _sleep
+class LateSignal:  # sends a second SIGTERM while the interpreter tears the modules down
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        _sleep(0.2)
+late = LateSignal()
+if {control}:
+    cm.ignore_while_exiting = lambda status: None
+cm.run()
+"""
+
+
+@pytest.mark.parametrize("control", [False, True])
+def test_a_signal_during_the_shutdown_keeps_the_status(tmp_path, control):
+    """After a stopped render is written its status (143) is decided: a second SIGTERM while the interpreter
+    shuts down (which restores the default handlers) must not kill the process instead. Negative control:
+    without :func:`ignore_while_exiting` the process dies by the signal (-15)."""
+    scene = _scene(tmp_path)
+    script = SIGNAL_DURING_SHUTDOWN.format(n=1, control=control)
+    out = subprocess.run([sys.executable, "-c", script, str(scene), str(tmp_path / "out.exr")],
+                         capture_output=True, text=True, timeout=HANG)  # hang bound
+    assert out.returncode == (-signal.SIGTERM if control else 143), out.stderr
+    assert "Traceback" not in out.stderr
+
+
+def test_a_signal_after_the_stopped_render_exits_at_once_with_its_status(tmp_path):
+    """Between the written pair and the shutdown a second signal leaves at once with the first one's status."""
+    script = SIGNAL_DURING_WRITE.format(n=1).replace(', "--quiet"', "").replace("sys.exit(main([", """
+import brdflab.timing as tm
+real_line = tm.fixed_costs_line
+def late(*a):  # the summary after the write: a second signal (SIGHUP) arrives here
+    os.kill(os.getpid(), signal.SIGHUP)
+    time.sleep(5)
+    return real_line(*a)
+tm.fixed_costs_line = late
+sys.exit(main([""")
+    out = subprocess.run([sys.executable, "-c", script, str(_scene(tmp_path)), str(tmp_path / "out.exr")],
+                         capture_output=True, text=True, timeout=HANG)  # hang bound
+    assert out.returncode == 143, out.stderr
+    assert "Traceback" not in out.stderr and read_exr_header(tmp_path / "out.exr")["brdflab_spp"] == "2"
