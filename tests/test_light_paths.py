@@ -422,3 +422,45 @@ def test_mis_parts_add_up_to_the_estimate():
         out[parts] = integ.li(s, o, d, np.full(n, 1.0), np.random.default_rng(21))
     assert out["emitter"].max() > 0 and out["bsdf"].max() > 0
     np.testing.assert_allclose(out["emitter"] + out["bsdf"], out["both"], rtol=1e-12, atol=1e-15)
+
+
+def _quad(z: float, x0: float, x1: float, flip: bool = False):
+    from brdflab.scene.obj import Mesh
+
+    p = np.array([[x0, -1.0, z], [x1, -1.0, z], [x1, 1.0, z], [x0, 1.0, z]])
+    f = np.array([[0, 2, 1], [0, 3, 2]] if flip else [[0, 1, 2], [0, 2, 3]])
+    return Mesh(p, f, None, None, "<quad>")
+
+
+def test_trace_to_lights_is_the_closest_hit_where_that_is_a_light():
+    """Geometry.trace_to_lights (light triangles first, then an occlusion query) returns exactly the closest
+    hit's record where that hit is a light triangle and −1 everywhere else: rays that miss, rays stopped by an
+    occluder in front of a light, rays that hit a non-light first. Each case must occur (the test has data)."""
+    from brdflab.scene.geometry import Geometry
+
+    # Floor (z = 0) under a light quad (z = 2, x in [-1, 1]) half covered by an occluder (z = 1, x in [0, 2])
+    # and a second, larger light (z = 3).
+    g = Geometry([_quad(0.0, -3, 3), _quad(2.0, -1, 1, True), _quad(1.0, 0, 2, True), _quad(3.0, -3, 3, True)])
+    tri_emitter = np.array([-1, -1, 0, 0, -1, -1, 1, 1, -1])
+    rng = np.random.default_rng(27)
+    n = 20000
+    o = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-0.5, 0.5, n), np.full(n, 0.01)]).astype(np.float32)
+    d = rng.normal(size=(n, 3))
+    d[:, 2] = np.abs(d[:, 2]) * np.where(rng.random(n) < 0.9, 1, -1)  # a tenth go down into the floor
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    ref, got = g.trace(o, d), g.trace_to_lights(o, d, tri_emitter)
+    light = tri_emitter[ref.prim] >= 0
+    assert np.array_equal(got.prim >= 0, light)
+    assert np.array_equal(got.prim[light], ref.prim[light])
+    for a in ("u", "v", "t"):
+        assert np.array_equal(getattr(got, a)[light], getattr(ref, a)[light]), a
+    blocked = ref.valid & ~light
+    assert light.sum() > 1000 and (~ref.valid).sum() > 1000 and blocked.sum() > 1000
+    assert (tri_emitter[ref.prim[blocked]] == -1).all() and (ref.prim[blocked] >= 4).any()  # the occluder
+    # Negative control: without the occlusion query, the light behind the occluder would count.
+    unblocked = g._light_scene(tri_emitter)[1].run(o, d.astype(np.float32), output=1)["primID"] >= 0
+    assert (unblocked & ~light).sum() > 100
+    # A new light table rebuilds the light scene; none at all finds nothing.
+    only_top = np.array([-1, -1, -1, -1, -1, -1, 0, 0, -1])
+    assert np.array_equal(g.trace_to_lights(o, d, only_top).prim >= 0, only_top[g.trace(o, d).prim] >= 0)
+    assert (g.trace_to_lights(o, d, np.full(9, -1)).prim == -1).all()

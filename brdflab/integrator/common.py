@@ -457,13 +457,14 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     """Trace rays (o, d); return the emitted radiance they find (area light or environment) and the
     solid-angle density with which *light sampling* would have produced that direction (selection
     probability included), for MIS."""
-    rh = scene.geometry.trace(o, d)
+    env = scene.environment  # without one, only the lights matter: Geometry.trace_to_lights is cheaper
+    g, tri_emitter = scene.geometry, scene_tables(scene).tri_emitter
+    rh = g.trace(o, d) if env is not None else g.trace_to_lights(o, d, tri_emitter)
     fused = area_light_set(scene)
     if fused is not None and compiled() and len(o):
-        Le, pdf = load("direct").light_set_emission(scene.geometry, rh, d, scene_tables(scene).tri_emitter, fused)
+        Le, pdf = load("direct").light_set_emission(g, rh, d, tri_emitter, fused)
     else:
         Le, pdf = _area_emission(scene, rh, d, fused)
-    env = scene.environment
     if env is not None:
         miss = np.flatnonzero(~rh.valid)
         if len(miss):
