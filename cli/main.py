@@ -146,16 +146,16 @@ def main(argv: list[str] | None = None) -> int:
     return int(status or 0)
 
 
-def run() -> None:
-    """The ``brdflab`` console entry point: :func:`main`, then exit with its status.
+def run(argv: list[str] | None = None) -> int:
+    """The ``brdflab`` console entry point: :func:`main`, whose status it returns for the exit.
 
     An exit status decided by a signal (130, 143, 129) is kept through the interpreter's shutdown:
     :func:`brdflab.cli.signals.ignore_while_exiting`.
     """
-    status = main()
+    status = main(argv)
     ignore_while_exiting(status)
-    sys.exit(status)
+    return status
 
 
 if __name__ == "__main__":
-    run()
+    sys.exit(run())

@@ -218,7 +218,7 @@ class LateSignal:  # sends a second SIGTERM while the interpreter tears the modu
 late = LateSignal()
 if {control}:
     cm.ignore_while_exiting = lambda status: None
-cm.run()
+sys.exit(cm.run())
 """
 
 
