@@ -464,3 +464,16 @@ def test_trace_to_lights_is_the_closest_hit_where_that_is_a_light():
     only_top = np.array([-1, -1, -1, -1, -1, -1, 0, 0, -1])
     assert np.array_equal(g.trace_to_lights(o, d, only_top).prim >= 0, only_top[g.trace(o, d).prim] >= 0)
     assert (g.trace_to_lights(o, d, np.full(9, -1)).prim == -1).all()
+
+
+@pytest.mark.parametrize("scene, integrator", [("veach/veach_mis.xml", "direct_mats"),
+                                               ("cbox/cbox_spheres.xml", "direct_mis")])
+def test_images_through_trace_to_lights_are_the_closest_hit_images(monkeypatch, scene, integrator):
+    """The BSDF rays' two-query path gives the image of the closest-hit path, to the bit."""
+    import brdflab as bl
+    from brdflab.scene.geometry import Geometry
+
+    s = load_scene(ROOT / "scenes" / scene, integrator=integrator, width=64, height=48)
+    fast = bl.render(s, spp=4, seed=5, workers=1)
+    monkeypatch.setattr(Geometry, "trace_to_lights", lambda self, o, d, tri_emitter: self.trace(o, d))
+    assert np.array_equal(fast, bl.render(s, spp=4, seed=5, workers=1)) and fast.max() > 0

@@ -296,8 +296,9 @@ class Geometry:
                 ids = np.flatnonzero(np.asarray(tri_emitter)[:len(self.faces)] >= 0)
                 sub = None
                 if len(ids):
-                    sub = rtcs.EmbreeScene()
-                    TriangleMesh(sub, self.positions.astype(np.float32), self.faces[ids].astype(np.int32))
+                    sub = rtcs.EmbreeScene()  # only the lights' vertices: a small light in a big scene stays small
+                    used, faces = np.unique(self.faces[ids], return_inverse=True)
+                    TriangleMesh(sub, self.positions[used].astype(np.float32), faces.reshape(-1, 3).astype(np.int32))
                     sub.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
                 self._lights = (tri_emitter, ids, sub)
             return self._lights[1], self._lights[2]
