@@ -413,3 +413,27 @@ def test_camera_rays_kernel_is_bit_identical(to_world):
     xfm = xf if xf is not None else Transform()
     kfilm.camera_rays(jitter.copy(), px, py, 64.0, 40.0, coef, xfm.matrix, xfm.origin(), *out)
     assert not np.array_equal(out[3], ref[3])
+
+
+@pytest.mark.parametrize("negate", [False, True])
+def test_frame_to_local_kernel_is_bit_identical(negate):
+    """NormalFrames.to_local through both engines gives the same bits, at the frame's poles (n = ±z and
+    n_z → −1, where a = −1/(σ + n_z) is huge) and on random frames; a changed rounding must show."""
+    from brdflab.kernels import shading as kshading
+    from brdflab.math.frame import NormalFrames
+
+    rng = np.random.default_rng(31)
+    n = rng.normal(size=(4000, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n[:4] = [[0, 0, 1], [0, 0, -1], [1e-9, 0, -np.sqrt(1 - 1e-18)], [0, 1, 0]]
+    v = np.asfortranarray(rng.normal(size=(4000, 3)))
+    frames = NormalFrames(n)
+    with kernels.use_engine("numpy"):
+        ref = frames.to_local(v, negate)
+    with kernels.use_engine("numba"):
+        got = frames.to_local(v, negate)
+    np.testing.assert_array_equal(got, ref)
+    assert got.flags.f_contiguous and np.isfinite(ref).all()
+    out = np.empty_like(ref)  # negative control: a one ulp larger a changes the result
+    kshading.frame_to_local(frames.n, frames.sign, np.nextafter(frames.a, np.inf), v, negate, out)
+    assert not np.array_equal(out, ref)

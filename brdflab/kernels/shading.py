@@ -1,4 +1,5 @@
-"""Kernel of the shading points (compiled engine): hit records, shading frames and local ω_i in one pass.
+"""Kernels of the shading points (compiled engine): hit records, shading frames and local ω_i in one pass;
+directions into the shading frames (:func:`to_local`).
 
 The NumPy specification is :meth:`brdflab.scene.geometry.Geometry.surface` (positions p = p0 + u e1 + v e2,
 face normals, interpolated and renormalised vertex normals where the mesh has them, uvs; spec §7.2)
@@ -13,7 +14,7 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1_F4, IN2, OUT1, OUT2, inline, kernel
+from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1, IN1_F4, IN2, OUT1, OUT2, inline, kernel
 
 
 @inline
@@ -61,6 +62,30 @@ def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, wa
         wi[i, 0] = -(s * nx * q + vx)
         wi[i, 1] = -(s * vy + ny * q)
         wi[i, 2] = -(nz * vz + w)
+
+
+@kernel(IN2, IN1, IN1, IN2, BOOL, OUT2)
+def frame_to_local(n, sign, a, v, negate, out):
+    """(v·s, v·t, v·n) per row in the frames (n, σ, a), negated with ``negate``: the operations of
+    :meth:`brdflab.math.frame.NormalFrames.to_local` in its order."""
+    for i in range(v.shape[0]):
+        nx, ny, nz = n[i, 0], n[i, 1], n[i, 2]
+        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+        w = nx * vx + ny * vy
+        q = a[i] * w - vz
+        x = sign[i] * nx * q + vx
+        y = sign[i] * vy + ny * q
+        z = nz * vz + w
+        if negate:
+            x, y, z = -x, -y, -z
+        out[i, 0], out[i, 1], out[i, 2] = x, y, z
+
+
+def to_local(frames, v: np.ndarray, negate: bool = False) -> np.ndarray:
+    """:meth:`brdflab.math.frame.NormalFrames.to_local`, compiled."""
+    out = np.empty(v.shape, order="F")
+    frame_to_local(frames.n, frames.sign, frames.a, v, bool(negate), out)
+    return out
 
 
 def shading_arrays(g, rh, d: np.ndarray, idx: np.ndarray, want_uv: bool, smooth: list[slice] | None):

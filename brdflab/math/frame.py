@@ -128,6 +128,10 @@ class NormalFrames:
 
     def to_local(self, v: np.ndarray, negate: bool = False) -> np.ndarray:
         """(v·s, v·t, v·n) per row, Fortran-ordered; of −v with ``negate``."""
+        from brdflab.kernels import compiled, load
+
+        if compiled() and v.dtype == np.float64 and v.ndim == 2 and len(v):  # its twin, bit for bit
+            return load("shading").to_local(self, v, negate)
         nx, ny, nz = self.n[:, 0], self.n[:, 1], self.n[:, 2]
         vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
         out = np.empty(v.shape, order="F")
