@@ -432,12 +432,16 @@ def _quad(z: float, x0: float, x1: float, flip: bool = False):
     return Mesh(p, f, None, None, "<quad>")
 
 
-def test_trace_to_lights_is_the_closest_hit_where_that_is_a_light():
+@pytest.mark.parametrize("second_scene", [True, False])
+def test_trace_to_lights_is_the_closest_hit_where_that_is_a_light(monkeypatch, second_scene):
     """Geometry.trace_to_lights (light triangles first, then an occlusion query) returns exactly the closest
     hit's record where that hit is a light triangle and −1 everywhere else: rays that miss, rays stopped by an
     occluder in front of a light, rays that hit a non-light first. Each case must occur (the test has data)."""
+    import brdflab.scene.geometry as geometry
     from brdflab.scene.geometry import Geometry
 
+    if not second_scene:  # more light triangles than a second scene is built for: the closest-hit query
+        monkeypatch.setattr(geometry, "LIGHT_SCENE_MAX", 1)
     # Floor (z = 0) under a light quad (z = 2, x in [-1, 1]) half covered by an occluder (z = 1, x in [0, 2])
     # and a second, larger light (z = 3).
     g = Geometry([_quad(0.0, -3, 3), _quad(2.0, -1, 1, True), _quad(1.0, 0, 2, True), _quad(3.0, -3, 3, True)])
@@ -457,6 +461,9 @@ def test_trace_to_lights_is_the_closest_hit_where_that_is_a_light():
     blocked = ref.valid & ~light
     assert light.sum() > 1000 and (~ref.valid).sum() > 1000 and blocked.sum() > 1000
     assert (tri_emitter[ref.prim[blocked]] == -1).all() and (ref.prim[blocked] >= 4).any()  # the occluder
+    assert (g._light_scene(tri_emitter)[1] is g) is not second_scene
+    if not second_scene:
+        return
     # Negative control: without the occlusion query, the light behind the occluder would count.
     unblocked = g._light_scene(tri_emitter)[1].run(o, d.astype(np.float32), output=1)["primID"] >= 0
     assert (unblocked & ~light).sum() > 100

@@ -31,6 +31,9 @@ from brdflab.scene.obj import Mesh
 RAY_EPS = 1e-4
 #: Embree's "infinite" distance.
 T_INF = 1e37
+#: Light triangles above which :meth:`Geometry.trace_to_lights` uses the whole scene's closest hit instead of a
+#: second Embree scene (built per worker process: an emissive million-triangle mesh would cost ~0.1 GB and ~1 s).
+LIGHT_SCENE_MAX = 1 << 17
 
 
 @dataclass
@@ -271,6 +274,10 @@ class Geometry:
         z = np.zeros(n, np.float32)
         if n == 0 or sub is None:
             return RayHits(np.zeros(n, bool), prim, z, z, np.full(n, np.inf, np.float32))
+        if sub is self:  # too many light triangles for a second scene: one closest-hit query of this one
+            rh = self.trace(o, d)
+            light = np.take(tri_emitter, rh.prim) >= 0
+            return RayHits(light, np.where(light, rh.prim, -1), rh.u, rh.v, np.where(light, rh.t, np.inf))
         o32, d32 = rows_f32(o), rows_f32(d)
         t0 = time.perf_counter()
         r = sub.run(o32, d32, output=1)
@@ -286,7 +293,8 @@ class Geometry:
 
     def _light_scene(self, tri_emitter: np.ndarray) -> tuple[np.ndarray, object]:
         """(global indices of the light triangles, their Embree scene or None if there are none), built once
-        per light table (under a lock: worker threads share the geometry)."""
+        per light table (under a lock: worker threads share the geometry); the geometry itself where there are
+        more than :data:`LIGHT_SCENE_MAX` light triangles (each worker would build and hold that second BVH)."""
         with self._lights_lock:
             if self._lights is None or not (self._lights[0] is tri_emitter
                                              or np.array_equal(self._lights[0], tri_emitter)):
@@ -295,7 +303,9 @@ class Geometry:
 
                 ids = np.flatnonzero(np.asarray(tri_emitter)[:len(self.faces)] >= 0)
                 sub = None
-                if len(ids):
+                if len(ids) > LIGHT_SCENE_MAX:
+                    sub = self
+                elif len(ids):
                     sub = rtcs.EmbreeScene()  # only the lights' vertices: a small light in a big scene stays small
                     used, faces = np.unique(self.faces[ids], return_inverse=True)
                     TriangleMesh(sub, self.positions[used].astype(np.float32), faces.reshape(-1, 3).astype(np.int32))
