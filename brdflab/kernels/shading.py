@@ -31,6 +31,15 @@ def vertex_normal(tri_nrm, k, u, v):
     return mx, my, mz, False
 
 
+@inline
+def in_frame(nx, ny, nz, s, a, vx, vy, vz):
+    """(v·s, v·t, v·n) in the frame of n kept as (σ, a), with the operations of
+    :meth:`~brdflab.math.frame.NormalFrames.to_local` in its order."""
+    w = nx * vx + ny * vy
+    q = a * w - vz
+    return s * nx * q + vx, s * vy + ny * q, nz * vz + w
+
+
 @kernel(IDX, IDX, IN1_F4, IN1_F4, FLAGS, IN2, IN2, IN2, IN2, IN2, BOOL, OUT2, OUT2, OUT2, OUT2, OUT1, OUT1, OUT2)
 def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, want_uv, p, ng, ns, uv, sign, a, wi):
     """Fill p, n_g, n_s, uv, σ, a and ω_i of the camera hits ``idx`` (see the module docstring)."""
@@ -56,12 +65,8 @@ def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, wa
         s = math.copysign(1.0, nz)
         aa = -1.0 / (s + nz)
         sign[i], a[i] = s, aa
-        vx, vy, vz = d[r, 0], d[r, 1], d[r, 2]
-        w = nx * vx + ny * vy
-        q = aa * w - vz
-        wi[i, 0] = -(s * nx * q + vx)
-        wi[i, 1] = -(s * vy + ny * q)
-        wi[i, 2] = -(nz * vz + w)
+        x, y, z = in_frame(nx, ny, nz, s, aa, d[r, 0], d[r, 1], d[r, 2])
+        wi[i, 0], wi[i, 1], wi[i, 2] = -x, -y, -z
 
 
 @kernel(IN2, IN1, IN1, IN2, BOOL, OUT2)
@@ -69,13 +74,7 @@ def frame_to_local(n, sign, a, v, negate, out):
     """(v·s, v·t, v·n) per row in the frames (n, σ, a), negated with ``negate``: the operations of
     :meth:`brdflab.math.frame.NormalFrames.to_local` in its order."""
     for i in range(v.shape[0]):
-        nx, ny, nz = n[i, 0], n[i, 1], n[i, 2]
-        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
-        w = nx * vx + ny * vy
-        q = a[i] * w - vz
-        x = sign[i] * nx * q + vx
-        y = sign[i] * vy + ny * q
-        z = nz * vz + w
+        x, y, z = in_frame(n[i, 0], n[i, 1], n[i, 2], sign[i], a[i], v[i, 0], v[i, 1], v[i, 2])
         if negate:
             x, y, z = -x, -y, -z
         out[i, 0], out[i, 1], out[i, 2] = x, y, z

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from brdflab.kernels import compiled, load
+
 
 def stack_cols(*cols: np.ndarray) -> np.ndarray:
     """Stack 1-D columns into an (N, k) Fortran-ordered array."""
@@ -128,8 +130,6 @@ class NormalFrames:
 
     def to_local(self, v: np.ndarray, negate: bool = False) -> np.ndarray:
         """(v·s, v·t, v·n) per row, Fortran-ordered; of −v with ``negate``."""
-        from brdflab.kernels import compiled, load
-
         if compiled() and v.dtype == np.float64 and v.ndim == 2 and len(v):  # its twin, bit for bit
             return load("shading").to_local(self, v, negate)
         nx, ny, nz = self.n[:, 0], self.n[:, 1], self.n[:, 2]

@@ -248,10 +248,7 @@ class Geometry:
             return RayHits(np.zeros(n, bool), np.full(n, -1, np.int64), z, z, np.full(n, np.inf, np.float32))
         # A copy: embreex writes the hit distances into the array it is given.
         dists = None if tmax is None else np.broadcast_to(np.asarray(tmax, np.float32), (n,)).copy()
-        o32, d32 = rows_f32(o), rows_f32(d)
-        t0 = time.perf_counter()  # only the embreex call counts as time in Embree
-        r = self._scene.run(o32, d32, dists=dists, output=1)
-        self.stats.add(n, time.perf_counter() - t0)
+        r = self._query(self._scene, rows_f32(o), rows_f32(d), dists=dists, output=1)
         prim = r["primID"].astype(np.int64)
         return RayHits(prim >= 0, prim, r["u"], r["v"], r["tfar"])
 
@@ -279,14 +276,12 @@ class Geometry:
             light = np.take(tri_emitter, rh.prim) >= 0
             return RayHits(light, np.where(light, rh.prim, -1), rh.u, rh.v, np.where(light, rh.t, np.inf))
         o32, d32 = rows_f32(o), rows_f32(d)
-        t0 = time.perf_counter()
-        r = sub.run(o32, d32, output=1)
-        self.stats.add(n, time.perf_counter() - t0)
+        r = self._query(sub, o32, d32, output=1)
         found = np.flatnonzero(r["primID"] >= 0)
         t = r["tfar"]
         if len(found):
-            tmax = self.shadow_tmax(t[found].astype(np.float64)).astype(np.float32)
-            seen = found[~self.occluded_f32(np.take(o32, found, axis=0), np.take(d32, found, axis=0), tmax)]
+            tmax = self.shadow_tmax(t[found].astype(np.float64))
+            seen = found[~self._occluded32(np.take(o32, found, axis=0), np.take(d32, found, axis=0), tmax)]
             prim[seen] = np.take(ids, r["primID"][seen])
         t[prim < 0] = np.inf
         return RayHits(prim >= 0, prim, r["u"], r["v"], t)
@@ -421,10 +416,15 @@ class Geometry:
     def occluded_f32(self, o32: np.ndarray, d32: np.ndarray, t32: np.ndarray) -> np.ndarray:
         """True where something blocks the rays o32 + t·d32, 0 ≤ t ≤ t32, given in Embree's layout: float32,
         (N, 3) C-ordered, t32 ≤ :data:`T_INF`. The scene must have triangles."""
-        t0 = time.perf_counter()  # only the embreex call counts as time in Embree
-        r = self._scene.run(o32, d32, dists=np.ascontiguousarray(t32), query="OCCLUDED")
+        return self._query(self._scene, o32, d32, dists=np.ascontiguousarray(t32), query="OCCLUDED") != -1
+
+    def _query(self, scene, o32: np.ndarray, d32: np.ndarray, **kwargs):
+        """``scene.run(o32, d32, **kwargs)`` (an embreex scene), counted in :attr:`stats` (only the embreex call
+        counts as time in Embree)."""
+        t0 = time.perf_counter()
+        r = scene.run(o32, d32, **kwargs)
         self.stats.add(len(o32), time.perf_counter() - t0)
-        return r != -1
+        return r
 
     # -- robust ray construction ------------------------------------------------------------------
     def offset_origin(self, p: np.ndarray, ng: np.ndarray, d: np.ndarray, f32: bool = False) -> np.ndarray:
