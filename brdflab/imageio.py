@@ -31,16 +31,52 @@ from brdflab.limits import check_input, check_memory
 
 #: Temporary files being written right now; a second signal removes them before the process exits.
 _TEMPORARIES: set[str] = set()
+#: Guards the writer jobs' start and end (an RLock inside: a signal handler on the main thread may take it).
+_GATE = threading.Condition()
+#: The writer jobs running now, and whether :func:`remove_temporaries` closed the gate (no job starts after).
+_JOBS = {"running": 0, "closed": False}
+#: Longest wait of :func:`remove_temporaries` for the running writers (an encoder stuck on a dead network disk).
+WRITER_WAIT = 30.0
 
 
 def remove_temporaries() -> None:
-    """Delete the temporary files of writes in progress (called when a run is aborted by a second signal)."""
+    """Delete the temporary files of writes in progress; for a process about to exit (a run aborted by a second
+    signal): no write starts after it.
+
+    The running encoders are waited for first (at most :data:`WRITER_WAIT` seconds): OpenEXR and Pillow open
+    their temporary by name, so one that opened it after the removal would create it again and the exit would
+    leave it behind. A writer thread that had not begun its job when the gate closed never begins it.
+    """
+    with _GATE:
+        _JOBS["closed"] = True
+        _GATE.wait_for(lambda: _JOBS["running"] == 0, timeout=WRITER_WAIT)
     for tmp in list(_TEMPORARIES):
         try:
             os.unlink(tmp)
         except OSError:
             pass
         _TEMPORARIES.discard(tmp)
+
+
+@contextmanager
+def _job(cancelled: list[bool], mine: list[int]) -> Iterator[bool]:
+    """Run one writer job through the gate: yields False (do nothing) once the gate is closed or the call
+    ``cancelled``; counts the job in ``mine`` (the call's) and the module's running jobs while it runs."""
+    with _GATE:
+        go = not (_JOBS["closed"] or cancelled[0])
+        if go:
+            _JOBS["running"] += 1
+            mine[0] += 1
+    if not go:
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        with _GATE:
+            _JOBS["running"] -= 1
+            mine[0] -= 1
+            _GATE.notify_all()
 
 
 def _write_error(path: Path, exc: BaseException) -> ImageError:
@@ -71,39 +107,56 @@ def output_lock(folder: str | Path) -> Iterator[None]:
 
 
 @contextmanager
-def _signals_blocked() -> Iterator[None]:
-    """Hold SIGINT/SIGTERM/SIGHUP back during the renames (a few system calls), so that a signal can never
-    leave one file of a pair replaced and the other not; they are delivered right after."""
-    import signal
-    import threading
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM/SIGHUP back for a few system calls (a temporary's creation and registration, the
+    renames of a pair), so that a signal can never fall between them; they are handled right after, in order.
 
-    sigs = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+    Python runs signal handlers in the main thread whichever thread the system delivers a signal to, so a
+    signal mask of the main thread would not hold them (another thread takes the signal and the handler runs
+    at once): the handlers are swapped for a recorder instead, and the recorded signals passed to the handlers
+    that were in place (the system's default action for ``SIG_DFL``, nothing for ``SIG_IGN``).
+    """
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    held: list[int] = []
+    sigs = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    previous = {sig: signal.signal(sig, lambda signum, frame: held.append(signum)) for sig in sigs}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for sig, prev in previous.items():
+            signal.signal(sig, signal.SIG_DFL if prev is None else prev)
+        for signum in held:
+            prev = previous[signum]
+            if callable(prev):
+                prev(signum, None)
+            elif prev in (None, signal.SIG_DFL):
+                os.kill(os.getpid(), signum)
 
 
 def _temporary(path: Path) -> str:
-    # An ASCII name (the final name may hold bytes that are not UTF-8, which OpenEXR cannot take).
-    fd, tmp = tempfile.mkstemp(prefix=".brdflab-", suffix=".tmp" + path.suffix.encode("ascii", "replace").decode(),
-                               dir=path.parent)
-    os.close(fd)
-    _TEMPORARIES.add(tmp)
+    # An ASCII name (the final name may hold bytes that are not UTF-8, which OpenEXR cannot take). Signals are
+    # held back from the file's creation to its registration, so that an abort cannot fall in between.
+    with _signals_held():
+        fd, tmp = tempfile.mkstemp(prefix=".brdflab-",
+                                   suffix=".tmp" + path.suffix.encode("ascii", "replace").decode(), dir=path.parent)
+        os.close(fd)
+        _TEMPORARIES.add(tmp)
     return tmp
 
 
 def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[float]:
     """Write several files so that they are replaced together or not at all; return each writer's seconds.
 
-    Every ``writer(temporary_path)`` runs first, into temporaries beside the targets (the first in this
-    thread, the others at the same time on threads of their own); only when all succeeded are the
+    Every ``writer(temporary_path)`` runs first, into temporaries beside the targets (each on a thread of its
+    own, all at the same time, while this thread waits, so that an abort by a signal can wait for them:
+    :func:`remove_temporaries`); only when all succeeded are the
     targets replaced, by renames under :func:`output_lock` of their folder with SIGINT/SIGTERM/SIGHUP held
-    back. If a rename fails, the files already replaced get their previous contents back. On any failure
+    back (:func:`_signals_held`). If a rename fails, the files already replaced get their previous contents
+    back. On any failure
     the temporaries are removed, the old files are untouched and :class:`ImageError` says why (a full
     disk is "No space left on device").
     """
@@ -114,13 +167,19 @@ def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[f
     umask = os.umask(0o022)  # read (and restore) once, before any thread starts
     os.umask(umask)
 
+    cancelled, mine = [False], [0]
+
     def job(i: int) -> None:
         t0 = time.perf_counter()
-        try:
-            items[i][1](temps[i])
-            os.chmod(temps[i], 0o666 & ~umask)  # mkstemp creates 0600; give the image the usual permissions
-        except Exception as exc:  # OpenEXR raises RuntimeError, Pillow OSError/ValueError
-            errors[i] = _write_error(paths[i], exc)
+        with _job(cancelled, mine) as go:
+            if not go:
+                errors[i] = ImageError("write cancelled", paths[i])
+                return
+            try:
+                items[i][1](temps[i])
+                os.chmod(temps[i], 0o666 & ~umask)  # mkstemp creates 0600; give the image the usual permissions
+            except Exception as exc:  # OpenEXR raises RuntimeError, Pillow OSError/ValueError
+                errors[i] = _write_error(paths[i], exc)
         took[i] = time.perf_counter() - t0
 
     for path in paths:
@@ -133,16 +192,22 @@ def write_files(items: list[tuple[str | Path, Callable[[str], None]]]) -> list[f
                 temps.append(_temporary(path))
             except OSError as exc:
                 raise _write_error(path, exc) from None
-        threads = [threading.Thread(target=job, args=(i,), name="brdflab-write") for i in range(1, len(items))]
-        for th in threads:
-            th.start()
-        job(0)
-        for th in threads:
-            th.join()
+        threads = [threading.Thread(target=job, args=(i,), name="brdflab-write") for i in range(len(items))]
+        try:
+            for th in threads:
+                th.start()
+            for th in threads:
+                th.join()
+        finally:
+            # Interrupted (a signal's exception): jobs that have not begun never will; wait for the running ones
+            # before the temporaries are removed below.
+            with _GATE:
+                cancelled[0] = True
+                _GATE.wait_for(lambda: mine[0] == 0, timeout=WRITER_WAIT)
         failed = next((e for e in errors if e is not None), None)
         if failed is not None:
             raise failed
-        with output_lock(paths[0].parent), _signals_blocked():
+        with output_lock(paths[0].parent), _signals_held():
             # [target, its previous contents moved aside (or None), whether the new file is in place]
             done: list[list] = []
             try:

@@ -7,8 +7,9 @@ Exit status of an interrupted run: 128 + the signal number — 130 (SIGINT), 143
   :func:`install_default_handlers`.
 * During a render, :class:`GracefulStop`: the first signal asks the render to stop at the next pass
   boundary (the completed passes are written as the ``_partial_<N>spp`` pair); a second signal exits at
-  once — the worker processes are killed, temporaries of an image write in progress are removed and
-  the process leaves with ``os._exit`` (no interpreter shutdown that could wait on a worker). Once the
+  once — the worker processes are killed, temporaries of an image write in progress are removed (once its
+  running encoders return, which could otherwise create them again: milliseconds) and the process leaves
+  with ``os._exit`` (no interpreter shutdown that could wait on a worker). Once the
   stopped render is written its exit status is decided: a signal after that still exits at once, with
   that status (:func:`_exit_decided`), and :func:`ignore_while_exiting` keeps a signal during the
   interpreter's shutdown (which restores the default handlers) from turning it into death by signal.

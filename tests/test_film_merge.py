@@ -21,6 +21,7 @@ import pytest
 from scipy import stats
 
 from brdflab.film import Film, Filter
+from brdflab.kernels import load
 from tests.conftest import write_scene
 
 
@@ -56,10 +57,13 @@ def _splat(film: Film, how: str, samples) -> None:
     sx = np.array([s[0] for s in samples])
     sy = np.array([s[1] for s in samples])
     v = np.array([s[2] for s in samples], dtype=float)
+    if how == "rows kernel":  # the compiled separable pass, which the cost model picks from 4 samples a pixel
+        load("film").splat_film(film, sx, sy, v, rows=True)
+        return
     getattr(film, how)(sx, sy, v)
 
 
-@pytest.mark.parametrize("how", ["splat", "_splat_direct", "_splat_separable"])
+@pytest.mark.parametrize("how", ["splat", "_splat_direct", "_splat_separable", "rows kernel"])
 @pytest.mark.parametrize(("kind", "f"), [("tent", _tent), ("gaussian", _gauss)])
 def test_splat_weights_by_hand(how, kind, f):
     film = Film(9, 7, Filter(kind))
@@ -77,14 +81,14 @@ def test_splat_weights_by_hand(how, kind, f):
         assert np.count_nonzero(wsum) == 4
 
 
-@pytest.mark.parametrize("how", ["splat", "_splat_direct", "_splat_separable"])
+@pytest.mark.parametrize("how", ["splat", "_splat_direct", "_splat_separable", "rows kernel"])
 @pytest.mark.parametrize("radius", [1.5, 1.6])
 def test_generic_radius_splat_by_hand(how, radius):
     """Gaussians of radius 1.5 (32/r not an integer: the direct 2-D path without phase tables) and 1.6 (20
     phases, not a power of two: the general phase split)."""
     filt = Filter("gaussian", radius=radius, stddev=0.4)
     assert (filt.phases, filt.phase_bits) == ((0, None) if radius == 1.5 else (20, None))
-    if how == "_splat_separable" and not filt.phases:
+    if how in ("_splat_separable", "rows kernel") and not filt.phases:
         return
     film = Film(9, 7, filt)
     _splat(film, how, SAMPLES)

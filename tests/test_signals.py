@@ -131,7 +131,7 @@ def test_second_signal_exits_at_once_without_orphans(tmp_path):
     run.proc.send_signal(signal.SIGTERM)
     assert run.finish() == 143, run.err
     _gone(workers)
-    assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".")], (sorted(os.listdir(tmp_path)), run.err)
     assert "Traceback" not in run.err
 
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.bsdf.family import BSDFFamilies
 from brdflab.emitter.area import AreaLightSet
+from brdflab.integrator.tables import CODE_EMITTER, CODE_MISS, SceneTables, scene_tables
 from brdflab.kernels import compiled, load
 from brdflab.math.frame import NormalFrames, take_rows
 from brdflab.scene.geometry import Hits
@@ -76,49 +76,6 @@ def background(scene, d: np.ndarray) -> np.ndarray:
     if scene.environment is None or len(d) == 0:
         return np.zeros((len(d), 3))
     return scene.environment.eval(d)
-
-
-@dataclass
-class SceneTables:
-    """Per-scene lookups the integrators build once (see :func:`scene_tables`)."""
-
-    bsdf_families: BSDFFamilies
-    tri_emitter: np.ndarray
-    """(triangles + 1,) emitter index of each triangle's mesh, −1 for none; the extra last entry (−1) is
-    what a miss (primID −1) reads."""
-    tri_code: np.ndarray
-    """(triangles + 1,) what a camera ray that hits the triangle does: shade it (code 2·family + smooth ≥ 0,
-    with the material family of its mesh and smooth = 1 when the mesh interpolates vertex normals, see
-    :class:`~brdflab.scene.geometry.Geometry`), return L_e (:data:`CODE_EMITTER`) or, in the extra last
-    entry, :data:`CODE_MISS`."""
-    codes: list[int]
-    """The shading codes (≥ 0) that occur in :attr:`tri_code`, ascending."""
-    bsdf_uv: bool
-    """True when some material has a texture, so shading points need their uvs."""
-    has_emitter_meshes: bool
-    """True when some mesh emits (camera rays can hit an emitter)."""
-
-
-#: :attr:`SceneTables.tri_code` of triangles on emitters and of misses.
-CODE_EMITTER, CODE_MISS = -1, -2
-
-
-def scene_tables(scene) -> SceneTables:
-    """The scene's :class:`SceneTables` (built on first use)."""
-    tab = scene.__dict__.get("_tables")
-    if tab is None:
-        tri_mesh = scene.geometry.tri_mesh
-        fams = BSDFFamilies.build(scene.bsdfs, scene.mesh_bsdf)
-        mesh_emitter = np.asarray(scene.mesh_emitter, np.int64)
-        tri_emitter = np.append(mesh_emitter[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), -1)
-        mesh_code = np.where(mesh_emitter >= 0, CODE_EMITTER, 2 * fams.mesh_family[: len(mesh_emitter)] +
-                             scene.geometry.mesh_smooth)
-        tri_code = np.append(mesh_code[tri_mesh] if len(tri_mesh) else np.zeros(0, np.int64), CODE_MISS)
-        codes = sorted(int(c) for c in set(mesh_code.tolist()) if c >= 0)
-        bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
-        tab = SceneTables(fams, tri_emitter, tri_code, codes, bsdf_uv, bool(np.any(mesh_emitter >= 0)))
-        scene.__dict__["_tables"] = tab
-    return tab
 
 
 def sort_by_code(code: np.ndarray, codes: list[int]) -> tuple[np.ndarray, list[tuple[int, slice]]]:
@@ -191,11 +148,8 @@ def _compiled_shading_points(scene, rh, d: np.ndarray, idx: np.ndarray, groups: 
     """:class:`ShadingPoints` by the compiled engine (:mod:`brdflab.kernels.shading`), bit-identical to
     ``make_shading_points(scene, g.surface(rh, idx, …), …)``."""
     tab = scene_tables(scene)
-    fams = tab.bsdf_families
-    p, ng, ns, uv, sign, a, wi = load("shading").shading_arrays(scene.geometry, rh, d, idx, tab.bsdf_uv, smooth)
-    member = None
-    if fams.any_tables:
-        member = np.take(fams.mesh_member, np.take(scene.geometry.tri_mesh, np.take(rh.prim, idx)))
+    p, ng, ns, uv, sign, a, wi, member = load("shading").shading_arrays(scene.geometry, rh, d, idx, tab.bsdf_uv,
+                                                                        smooth, tab.tri_member)
     return ShadingPoints(idx, p, ng, ns, NormalFrames(ns, sign, a), uv, wi, groups, member)
 
 
@@ -269,6 +223,8 @@ def rows(a: np.ndarray | None, sel) -> np.ndarray | None:
 def accumulate(L: np.ndarray, idx: np.ndarray, a: np.ndarray, b: np.ndarray, scale: np.ndarray | None = None) -> None:
     """``L[idx] += a · b · scale[:, None]`` channel by channel (1-D gathers and products, no (M, 3)
     temporaries); ``idx`` holds distinct rows."""
+    if compiled() and L.dtype == a.dtype == b.dtype == np.float64 and idx.dtype == np.int64:
+        return load("direct").accumulate(L, idx, a, b, np.zeros(0) if scale is None else scale, scale is not None)
     for j in range(3):
         c = a[:, j] * b[:, j]
         if scale is not None:
@@ -449,6 +405,8 @@ def light_term(scene, sp: ShadingPoints, u: np.ndarray, mis=None) -> np.ndarray:
 
 def set_rows(L: np.ndarray, idx: np.ndarray, values: np.ndarray) -> None:
     """``L[idx] = values`` channel by channel (1-D scatters into the Fortran-ordered ``L``)."""
+    if compiled() and L.dtype == values.dtype == np.float64 and idx.dtype == np.int64:
+        return load("direct").set_rows(L, idx, values)
     for j in range(3):
         L[:, j][idx] = values[:, j]
 
@@ -493,7 +451,7 @@ def _area_emission(scene, rh, d: np.ndarray, fused: AreaLightSet | None) -> tupl
     return Le, pdf
 
 
-__all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "background", "trace_camera",
-           "shading_points", "make_shading_points", "scene_tables", "sort_by_code", "by_group", "accumulate",
-           "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights",
+__all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "CODE_EMITTER", "CODE_MISS", "background",
+           "trace_camera", "shading_points", "make_shading_points", "scene_tables", "sort_by_code", "by_group",
+           "accumulate", "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights",
            "light_contributions", "light_term", "set_rows", "emission_along", "choose_emitters"]

@@ -20,6 +20,10 @@ the same order, so the two engines agree to the bit:
   from the hit's triangle, barycentrics and distance (the shading normal as
   :meth:`~brdflab.scene.geometry.Geometry.surface` reconstructs it, then
   :meth:`~brdflab.emitter.area.AreaLightSet.eval_pdf_hit`).
+* :func:`set_rows` and :func:`accumulate`: the integrators' scatters of per-point values into the camera
+  samples' radiance, L[idx] = v and L[idx] += a·b·s (:func:`~brdflab.integrator.common.set_rows`,
+  :func:`~brdflab.integrator.common.accumulate`), one pass over the rows instead of a gather, products and a
+  scatter per channel.
 """
 
 from __future__ import annotations
@@ -187,6 +191,28 @@ def bsdf_ray_batch(g, sp, wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray):
     bsdf_rays(_f8(wo), _f8(weight), _f8(pdf), fr.n, fr.sign, fr.a, sp.p, sp.ng, g.eps, live, d, pdf_live, w_live, o32)
     k = int(live[m])
     return live[:k], d[:k], o32[:k], w_live[:k], pdf_live[:k]
+
+
+@kernel(OUT2, IDX, IN2)
+def set_rows(L, idx, values):
+    """L[idx[i]] = values[i] (:func:`brdflab.integrator.common.set_rows`)."""
+    for i in range(idx.shape[0]):
+        r = idx[i]
+        for j in range(3):
+            L[r, j] = values[i, j]
+
+
+@kernel(OUT2, IDX, IN2, IN2, IN1, BOOL)
+def accumulate(L, idx, a, b, scale, scaled):
+    """L[idx[i]] += a[i]·b[i] (·scale[i] when ``scaled``) per channel, rounded as
+    :func:`brdflab.integrator.common.accumulate` rounds (the product first, then the sum)."""
+    for i in range(idx.shape[0]):
+        r = idx[i]
+        for j in range(3):
+            c = a[i, j] * b[i, j]
+            if scaled:
+                c *= scale[i]
+            L[r, j] = L[r, j] + c
 
 
 def _f8(a: np.ndarray) -> np.ndarray:

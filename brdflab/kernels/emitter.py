@@ -5,8 +5,10 @@ Per shading point: the light point (folding warp on the chosen triangle, or c + 
 parallelogram), the unit direction and distance to it, the light's normal there (one plane normal, the
 triangle's face normal, or interpolated and renormalised vertex normals), the solid-angle pdf
 ‖y − x‖² / (A |n_l·ω|) (times the selection probability) and the radiance, 0 for back faces (spec §9.1,
-see :mod:`brdflab.emitter.area`). The discrete choice of the triangle (CDF or alias table) stays in NumPy.
-Each value is formed with the operations of the NumPy code in its order: the engines agree to the bit.
+see :mod:`brdflab.emitter.area`). The discrete choice of the triangle: :func:`choose` for a short CDF (the
+count of CDF entries ≤ ξ, :func:`~brdflab.emitter.area.invert_cdf`, in one pass instead of one per entry); the
+alias table's stays in NumPy. Each value is formed with the operations of the NumPy code in its order: the
+engines agree to the bit.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import math
 import numpy as np
 
 from brdflab.emitter.base import EmitterSample
-from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, kernel
+from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, OUT_IDX, kernel
 
 TINY = np.finfo(np.float64).tiny
 #: Normal sources: one plane normal, face normal per triangle, interpolated vertex normals.
@@ -97,6 +99,27 @@ def sample_emitter(em, ref_p: np.ndarray, u: np.ndarray):
                     value)
     k = em._choose_triangles(u[:, 2])
     return _run(False, k, u, 0, ref_p, em._pos, em._normal, em._nrm, False, _NO_SCALE, em.area, value)
+
+
+@kernel(IN1, IN1, OUT_IDX)
+def count_below(cdf, u, k):
+    """k[i] = the number of entries cdf[0 … n−2] ≤ u[i] (:func:`brdflab.emitter.area.invert_cdf`)."""
+    for i in range(u.shape[0]):
+        c = 0
+        for j in range(cdf.shape[0] - 1):
+            if u[i] >= cdf[j]:
+                c += 1
+        k[i] = c
+
+
+def choose(chooser, u: np.ndarray):
+    """:meth:`DiscreteChooser.sample <brdflab.emitter.area.DiscreteChooser.sample>`, compiled for a short CDF
+    (``NotImplemented`` for an alias table)."""
+    if chooser.alias is not None:
+        return NotImplemented
+    k = np.empty(len(u), np.int64)
+    count_below(chooser.cdf, np.asarray(u, np.float64), k)
+    return k
 
 
 def sample_light_set(lights, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:

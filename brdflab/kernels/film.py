@@ -10,10 +10,18 @@ same order as the NumPy code, so the two agree to the bit.
 
 Each sample adds w_x·w_y·(L, 1) to the taps² pixels around it, with the first tap and the sub-pixel
 phase found as in :meth:`~brdflab.film.Film._taps` and the weights read from the filter's phase table
-(:class:`~brdflab.film.Filter`). The NumPy code sums the same products in another order (per channel with
-``bincount``, then the y pass as a matrix product), so the two agree to rounding (1e-12 relative), not to
-the bit. The sums accumulate in a pixel-interleaved buffer (one cache line per tap) before they are added
-to the film's channel planes.
+(:class:`~brdflab.film.Filter`). Two passes, as in the NumPy code, chosen by their cost:
+
+* ``splat`` (direct): taps² multiply-adds of (L, 1) per sample, accumulated in a pixel-interleaved buffer
+  (one cache line per tap) and then added to the film's channel planes;
+* ``splat_rows`` (separable, when there are at least phases/taps samples per pixel, e.g. from 4 spp with the
+  default Gaussian): the x pass of each sample, w_x·(L, 1) over its taps, into a row of
+  G[first row, y phase] (taps multiply-adds instead of taps²), then every row of G that received a sample
+  added to the taps image rows below it with the weights w_y of its phase. 2.6× faster than the direct pass
+  at 64 spp (14 against 36 ns per sample), slower below 4 spp (G has pixels × phases rows).
+
+The NumPy code sums the same products in another order (per channel with ``bincount``, then the y pass as a
+matrix product), so the engines agree to rounding (1e-12 relative), not to the bit.
 """
 
 from __future__ import annotations
@@ -65,13 +73,66 @@ def splat(sx, sy, values, data, wt, offset, nph, bits, taps, shift_x, shift_y):
                 data[c, y, x] += acc[y, x, c]
 
 
-def splat_film(film, sx: np.ndarray, sy: np.ndarray, values: np.ndarray) -> None:
-    """:meth:`brdflab.film.Film.splat`, compiled (the film's filter must have phase tables)."""
+@kernel(IN1, IN1, IN2, OUT3, IN2, IDX, I8, I8, I8, I8, I8)
+def splat_rows(sx, sy, values, data, wt, offset, nph, bits, taps, shift_x, shift_y):
+    """:func:`splat` by the separable pass (module doc): the same arguments and sums, in another order."""
+    bh, bw = data.shape[1], data.shape[2]
+    g = np.zeros((bh, nph, 4, bw))
+    used = np.zeros((bh, nph), np.bool_)
+    for i in range(sx.shape[0]):
+        fx, phx = _first_tap(sx[i], nph, bits, offset, shift_x, bw, taps)
+        fy, phy = _first_tap(sy[i], nph, bits, offset, shift_y, bh, taps)
+        r, gr, b = values[i, 0], values[i, 1], values[i, 2]
+        used[fy, phy] = True
+        row = g[fy, phy]
+        for kx in range(taps):
+            w = wt[kx, phx]
+            x = fx + kx
+            row[0, x] += w * r
+            row[1, x] += w * gr
+            row[2, x] += w * b
+            row[3, x] += w
+    acc = np.zeros((4, bh, bw))
+    for fy in range(bh):
+        for ph in range(nph):
+            if not used[fy, ph]:
+                continue
+            row = g[fy, ph]
+            for ky in range(taps):
+                wy = wt[ky, ph]
+                out = acc[:, fy + ky]
+                for c in range(4):
+                    for x in range(bw):
+                        out[c, x] += wy * row[c, x]
+    for c in range(4):
+        for y in range(bh):
+            for x in range(bw):
+                data[c, y, x] += acc[c, y, x]
+
+
+#: Largest row buffer G of the separable pass, in bytes (above it, the direct pass).
+ROWS_BYTES = 1 << 24
+
+
+def separable(n: int, film) -> bool:
+    """Whether ``n`` samples into ``film`` take the separable pass: at least phases/taps samples per buffer
+    pixel (there it costs less than the direct pass), with G within :data:`ROWS_BYTES`."""
+    f = film.filter
+    cells = film.bh * film.bw * f.phases
+    return n * f.phase_taps >= cells and 32 * cells <= ROWS_BYTES
+
+
+def splat_film(film, sx: np.ndarray, sy: np.ndarray, values: np.ndarray, rows: bool | None = None) -> None:
+    """:meth:`brdflab.film.Film.splat`, compiled (the film's filter must have phase tables); ``rows``
+    forces the separable (True) or direct (False) pass, else :func:`separable` picks."""
     f = film.filter
     bits = -1 if f.phase_bits is None else f.phase_bits
-    splat(np.asarray(sx, np.float64), np.asarray(sy, np.float64), np.asarray(values, np.float64), film.data,
- f.phase_weights_t, f.phase_offset, f.phases, bits, f.phase_taps,
-          film.border - film.x0, film.border - film.y0)
+    if rows is None:
+        rows = separable(len(sx), film)
+    (splat_rows if rows else splat)(
+        np.asarray(sx, np.float64), np.asarray(sy, np.float64), np.asarray(values, np.float64), film.data,
+        f.phase_weights_t, f.phase_offset, f.phases, bits, f.phase_taps, film.border - film.x0,
+        film.border - film.y0)
 
 
 @inline

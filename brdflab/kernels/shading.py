@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1, IN1_F4, IN2, OUT1, OUT2, inline, kernel
+from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1, IN1_F4, IN2, OUT1, OUT2, OUT_IDX, inline, kernel
 
 
 @inline
@@ -40,12 +40,17 @@ def in_frame(nx, ny, nz, s, a, vx, vy, vz):
     return s * nx * q + vx, s * vy + ny * q, nz * vz + w
 
 
-@kernel(IDX, IDX, IN1_F4, IN1_F4, FLAGS, IN2, IN2, IN2, IN2, IN2, BOOL, OUT2, OUT2, OUT2, OUT2, OUT1, OUT1, OUT2)
-def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, want_uv, p, ng, ns, uv, sign, a, wi):
-    """Fill p, n_g, n_s, uv, σ, a and ω_i of the camera hits ``idx`` (see the module docstring)."""
+@kernel(IDX, IDX, IN1_F4, IN1_F4, FLAGS, IN2, IN2, IN2, IN2, IN2, BOOL, IDX, BOOL, OUT2, OUT2, OUT2, OUT2, OUT1, OUT1,
+        OUT2, OUT_IDX)
+def shade(idx, prim, bu32, bv32, smooth, d, tri_pos, face_n, tri_nrm, tri_uv, want_uv, tri_member, want_member,
+          p, ng, ns, uv, sign, a, wi, member):
+    """Fill p, n_g, n_s, uv, σ, a, ω_i and (with ``want_member``) the material within its family of the camera
+    hits ``idx`` (see the module docstring)."""
     for i in range(idx.shape[0]):
         r = idx[i]
         k = prim[r]
+        if want_member:
+            member[i] = tri_member[k]
         u, v = np.float64(bu32[r]), np.float64(bv32[r])
         for j in range(3):
             p[i, j] = tri_pos[j, k] + tri_pos[3 + j, k] * u + tri_pos[6 + j, k] * v
@@ -87,9 +92,11 @@ def to_local(frames, v: np.ndarray, negate: bool = False) -> np.ndarray:
     return out
 
 
-def shading_arrays(g, rh, d: np.ndarray, idx: np.ndarray, want_uv: bool, smooth: list[slice] | None):
-    """(p, n_g, n_s, uv or None, σ, a, ω_i) of the hits ``idx`` of a trace ``rh`` of rays ``d``, as
-    ``g.surface(rh, idx, uv=want_uv, smooth=smooth)`` and :class:`~brdflab.math.frame.NormalFrames` give them."""
+def shading_arrays(g, rh, d: np.ndarray, idx: np.ndarray, want_uv: bool, smooth: list[slice] | None,
+                   tri_member: np.ndarray | None = None):
+    """(p, n_g, n_s, uv or None, σ, a, ω_i, member or None) of the hits ``idx`` of a trace ``rh`` of rays ``d``,
+    as ``g.surface(rh, idx, uv=want_uv, smooth=smooth)`` and :class:`~brdflab.math.frame.NormalFrames` give
+    them; ``member`` = ``tri_member`` at the hits' triangles (:class:`~brdflab.integrator.tables.SceneTables`)."""
     m = len(idx)
     flags = np.zeros(m, np.bool_)
     if g.tri_nrm is not None:
@@ -102,6 +109,8 @@ def shading_arrays(g, rh, d: np.ndarray, idx: np.ndarray, want_uv: bool, smooth:
     sign, a = np.empty(m), np.empty(m)
     tri_nrm = g.tri_nrm if g.tri_nrm is not None else np.zeros((9, 0))
     tri_uv = g.tri_uv if g.tri_uv is not None else np.zeros((0, 0))
+    want_member = tri_member is not None
+    member = np.empty(m if want_member else 0, np.int64)
     shade(idx, rh.prim, rh.u, rh.v, flags, d, g.tri_pos, g.face_normal_cols, tri_nrm, tri_uv, want_uv,
-          p, ng, ns, uv, sign, a, wi)
-    return p, ng, ns, uv if want_uv else None, sign, a, wi
+          tri_member if want_member else member, want_member, p, ng, ns, uv, sign, a, wi, member)
+    return p, ng, ns, uv if want_uv else None, sign, a, wi, member if want_member else None
