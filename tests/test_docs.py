@@ -14,7 +14,8 @@ DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.validate", "brdfla
                    "brdflab.validate.battery", "brdflab.validate.consistency", "brdflab.validate.external",
                    "brdflab.validate.furnace", "brdflab.validate.guard", "brdflab.validate.seeding",
                    "brdflab.validate.stability", "brdflab.workflows",
-                   "brdflab.validate.sample_files", "brdflab.fitting", "brdflab.validate.emitter_samples"]
+                   "brdflab.validate.sample_files", "brdflab.fitting", "brdflab.validate.emitter_samples",
+                   "brdflab.kernels", "brdflab.kernels.buffers"]
 
 
 def test_tutorial_runs(monkeypatch):

@@ -87,3 +87,23 @@ def test_shading_points_carry_the_material_within_its_family():
             got[eng] = common.trace_camera(sc, o, d, tmax)[1].member
     np.testing.assert_array_equal(got["numba"], got["numpy"])
     assert len(np.unique(got["numba"])) > 1
+
+
+@pytest.mark.parametrize("m", [0, 1, 777, 65536])
+def test_output_columns_are_staggered_and_disjoint(m):
+    """kernels.buffers.columns: every column contiguous, starting at its own offset modulo 4 KiB (192 bytes
+    apart), and no two arrays share memory (each keeps the values written to it)."""
+    from brdflab.kernels.buffers import PAGE, STEP, columns
+
+    arrs = columns(m, [3, 3, None, 2, None])
+    assert [a.shape for a in arrs] == [(m, 3), (m, 3), (m,), (m, 2), (m,)]
+    cols = [a[:, j] if a.ndim == 2 else a for a in arrs for j in range(a.shape[1] if a.ndim == 2 else 1)]
+    starts = [c.__array_interface__["data"][0] for c in cols]
+    assert [s % PAGE for s in starts] == [(STEP * q) % PAGE for q in range(len(cols))]
+    assert all(c.strides == (8,) for c in cols)
+    for q, c in enumerate(cols):
+        c[:] = q
+    for q, c in enumerate(cols):
+        assert np.all(c == q)
+    ints = columns(m, [None], np.int64)[0]
+    assert ints.dtype == np.int64 and ints.shape == (m,)

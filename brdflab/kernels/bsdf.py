@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from brdflab.bsdf.base import BSDFSample, uv_or_zeros
+from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, inline, kernel
 from brdflab.kernels.scalar import (
     INV_PI,
@@ -229,12 +230,14 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
         if not wo.flags.writeable:  # the kernel's ω_o argument is also its output when it samples
             wo = wo.copy()
     # Outputs are left uninitialised: the kernels write every row of the ones they are asked for.
-    f = np.empty((n if need_f and op == TERMS else 0, 3), order="F")
-    weight = np.empty((n if op == SAMPLE else 0, 3), order="F")
-    pdf = np.empty(n)
+    f = weight = np.empty((0, 3), order="F")
     if op == SAMPLE:
-        wo = np.empty((n, 3), order="F")
+        wo, weight, pdf = columns(n, [3, 3, None])
         need_f = need_pdf = True
+    elif need_f:
+        f, pdf = columns(n, [3, None])
+    else:
+        pdf = np.empty(n)
     u = _NO_U if u is None else np.asarray(u, np.float64)
     # ln(1 − ξ1) of the Beckmann warp by NumPy: its SIMD log1p and the C library's differ in the last bit,
     # which tiny α amplifies (exp, sin, cos and sqrt agree or are not amplified).

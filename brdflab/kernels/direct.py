@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import (
     BOOL,
     F8,
@@ -157,7 +158,7 @@ def light_set_emission(g, rh, d: np.ndarray, tri_emitter: np.ndarray, lights) ->
     """(L_e (N, 3), pdf (N,)) found by the rays ``d`` of the trace ``rh`` in a scene whose area lights form the
     :class:`~brdflab.emitter.area.AreaLightSet` ``lights`` (``emission_along`` before the environment), compiled."""
     n = len(d)
-    le, pdf = np.empty((n, 3), order="F"), np.empty(n)
+    le, pdf = columns(n, [3, None])
     smooth = g.tri_nrm is not None
     emission(rh.prim, rh.u, rh.v, rh.t, _f8(d), tri_emitter, g.face_normal_cols, g.tri_nrm if smooth else _NO_NRM,
              smooth, lights._emitter_radiance, lights._emitter_pdf_scale, le, pdf)
@@ -169,7 +170,7 @@ def light_tail(g, p: np.ndarray, ng: np.ndarray, radiance: np.ndarray, f: np.nda
     """(M, 3) contributions of the light samples (``light_contributions``, visibility included), compiled;
     ``g`` is the scene's geometry, ``w`` the MIS weights or None."""
     m = len(f)
-    c = np.empty((m, 3), order="F")
+    (c,) = columns(m, [3])
     live = np.empty(m + 1, np.int64)
     o32, d32, t32 = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32), np.empty(m, np.float32)
     light_rays(_f8(radiance), _f8(f), _f8(wo), _f8(pdf), _NO_W if w is None else _f8(w), w is not None, p, ng,
@@ -185,8 +186,8 @@ def bsdf_ray_batch(g, sp, wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray):
     """(live, d, o32, weight, pdf) of ``direct_mats.bsdf_rays`` before its trace, compiled."""
     m = len(wo)
     live = np.empty(m + 1, np.int64)
-    d, w_live = np.empty((m, 3), order="F"), np.empty((m, 3), order="F")
-    pdf_live, o32 = np.empty(m), np.empty((m, 3), np.float32)
+    d, w_live, pdf_live = columns(m, [3, 3, None])
+    o32 = np.empty((m, 3), np.float32)
     fr = sp.frames
     bsdf_rays(_f8(wo), _f8(weight), _f8(pdf), fr.n, fr.sign, fr.a, sp.p, sp.ng, g.eps, live, d, pdf_live, w_live, o32)
     k = int(live[m])

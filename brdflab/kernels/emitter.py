@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from brdflab.emitter.base import EmitterSample
+from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, OUT_IDX, kernel
 
 TINY = np.finfo(np.float64).tiny
@@ -79,8 +80,7 @@ def light_points(quad, k, u, c0, ref_p, pos, normals, nmode, nrm, fused, pdf_sca
 
 def _run(quad: bool, k, u, c0, ref_p, pos, normal, nrm, fused, pdf_scale, area, rad) -> EmitterSample:
     n = len(ref_p)
-    wi, radiance = np.empty((n, 3), order="F"), np.empty((n, 3), order="F")
-    dist, pdf = np.empty(n), np.empty(n)
+    wi, radiance, dist, pdf = columns(n, [3, 3, None, None])
     normals = np.atleast_2d(normal)
     nmode = VERTEX if nrm is not None else (PLANE if np.ndim(normal) == 1 else FACE)
     light_points(quad, np.zeros(0, np.int64) if k is None else np.asarray(k, np.int64), np.asarray(u, np.float64), c0,

@@ -30,6 +30,7 @@ import math
 
 import numpy as np
 
+from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import F8, I8, IDX, IN1, IN2, OUT1, OUT2, OUT2_F4, OUT3, inline, kernel
 
 
@@ -189,8 +190,8 @@ def unit_rays(cam, jitter: np.ndarray, px: np.ndarray, py: np.ndarray, x0: int, 
     n = px.shape[0]
     xf = cam.to_world if cam.to_world is not None else Transform()
     coef = np.array([*cam.ray_coefficients(), cam.near, cam.far - cam.near])
-    sx, sy, tmax = np.empty(n), np.empty(n), np.empty(n)
-    o, d = np.empty((n, 3), np.float32), np.empty((n, 3), order="F")
+    d, sx, sy, tmax = columns(n, [3, None, None, None])
+    o = np.empty((n, 3), np.float32)
     camera_rays(np.asarray(jitter, np.float64), np.asarray(px, np.float64), np.asarray(py, np.float64), float(x0),
                 float(y0), coef, np.asarray(xf.matrix, np.float64), np.asarray(xf.origin(), np.float64), sx, sy, o, d,
                 tmax)

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import BOOL, FLAGS, IDX, IN1, IN1_F4, IN2, OUT1, OUT2, OUT_IDX, inline, kernel
 
 
@@ -104,9 +105,8 @@ def shading_arrays(g, rh, d: np.ndarray, idx: np.ndarray, want_uv: bool, smooth:
             flags[:] = True
         for sl in smooth or ():
             flags[sl] = True
-    p, ng, ns, wi = (np.empty((m, 3), order="F") for _ in range(4))
+    p, ng, ns, wi, sign, a = columns(m, [3, 3, 3, 3, None, None])
     uv = np.empty((m, 2), order="F") if want_uv else np.empty((0, 2), order="F")
-    sign, a = np.empty(m), np.empty(m)
     tri_nrm = g.tri_nrm if g.tri_nrm is not None else np.zeros((9, 0))
     tri_uv = g.tri_uv if g.tri_uv is not None else np.zeros((0, 0))
     want_member = tri_member is not None
