@@ -324,11 +324,11 @@ def _png_writer(rgb: np.ndarray) -> Callable[[str], None]:
     from PIL import Image
     from PIL.PngImagePlugin import PngInfo
 
-    data = srgb_bytes(rgb)
     info = PngInfo()
     info.add_text("Software", "brdflab")  # brdflab.outputs.made_by_brdflab: a later run may replace it
-    return lambda tmp: Image.fromarray(data, "RGB").save(tmp, format="PNG", compress_level=PNG_COMPRESS_LEVEL,
-                                                         pnginfo=info)
+    # The sRGB conversion runs in the writer (on its thread, beside the EXR's encoder), not before it.
+    return lambda tmp: Image.fromarray(srgb_bytes(rgb), "RGB").save(tmp, format="PNG",
+                                                                    compress_level=PNG_COMPRESS_LEVEL, pnginfo=info)
 
 
 def srgb_bytes(rgb: np.ndarray) -> np.ndarray:
