@@ -43,3 +43,40 @@ def test_without_debug_one_line_exit_2(tmp_path, capsys):
     assert main(["render", str(tmp_path / "missing.xml")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("argv", "command"), [
+    (["render", "scene.xml"], "render"),
+    (["--debug", "--engine", "numpy", "chi2", "--bsdf", "diffuse"], "chi2"),
+    (["--engine=numpy", "check", "x.exr"], "check"),
+    (["--engine", "render"], None),  # "render" is the value of --engine here (an invalid one)
+    (["rendr", "scene.xml"], None),
+    (["--help"], None),
+    (["--", "render"], None),
+])
+def test_one_command_imports_only_its_module(argv, command):
+    """The command named on the line is found past the global options; anything else builds the full parser,
+    so that errors and --help list every command."""
+    from brdflab.cli.main import COMMANDS, build_parser, requested_command
+
+    assert requested_command(argv) == command
+    parser = build_parser(command)
+    subs = next(a for a in parser._actions if a.dest == "command").choices
+    assert list(subs) == ([command] if command else list(COMMANDS))
+
+
+def test_a_misspelt_command_still_lists_every_command(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["rendr", "scene.xml"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'rendr'" in err and "'validate'" in err and "'explore'" in err
+
+
+def test_a_render_process_does_not_import_the_other_commands(tmp_path):
+    code = ("import sys; from brdflab.cli.main import main\n"
+            "try:\n    main(['render', '--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('brdflab.cli.') and m.endswith('_cmd')))")
+    out = _run_outside(tmp_path, code)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "['brdflab.cli.render_cmd']"
