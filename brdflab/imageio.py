@@ -334,7 +334,9 @@ def _png_writer(rgb: np.ndarray) -> Callable[[str], None]:
 def srgb_bytes(rgb: np.ndarray) -> np.ndarray:
     """Convert linear RGB to 8-bit sRGB exactly as Nori does (OETF, then truncation)."""
     c = np.clip(np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0), 0.0, None)
-    # Spec §1 (IEC 61966-2-1 OETF written out so that c = 1 maps to exactly 255, as in Nori).
+    # Spec §1 (the IEC 61966-2-1 OETF): s = 12.92 c for c ≤ 0.0031308, else 1.055 c^(1/2.4) − 0.055; then
+    # ⌊clip(255 s, 0, 255)⌋. Evaluated as written, c = 1 gives 1.055 − 0.055 = 0.9999999999999999 and byte 254
+    # (float32 arithmetic rounds that difference below 1 too); above 1 the clip gives 255.
     s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
     return np.floor(np.clip(255.0 * s, 0.0, 255.0)).astype(np.uint8)
 

@@ -207,3 +207,27 @@ def test_closed_pipe_ends_quietly(tmp_path):
     cmd = f"'{sys.executable}' -m brdflab.cli.main compare '{a}' '{b}' | true"
     out = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True, timeout=120)
     assert "Traceback" not in out.stderr and "BrokenPipe" not in out.stderr, out.stderr
+
+
+def test_srgb_bytes_by_the_formula():
+    """srgb_bytes pinned to the spec's formula (§1) evaluated as written, so that a faster rewrite must give the
+    same bytes: random values, the branch point and its neighbours, values whose 255·s lands next to an integer,
+    1, above 1, zeros, negatives, NaN and ±inf; and the bytes of a few of them by hand."""
+    rng = np.random.default_rng(5)
+    t = 0.0031308
+    edges = [0.0, -0.0, -1.0, t, np.nextafter(t, 0), np.nextafter(t, 1), 1.0, np.nextafter(1.0, 0), 1.5, 1e30,
+             np.nan, np.inf, -np.inf, 1e-300]
+    k = np.arange(256) / 255.0  # s = k/255 exactly: c = OETF⁻¹(s), then ± a few ulps
+    c_k = np.where(k <= 0.04045, k / 12.92, ((k + 0.055) / 1.055) ** 2.4)
+    near = np.concatenate([c_k, np.nextafter(c_k, 0), np.nextafter(c_k, 2)])
+    vals = np.concatenate([rng.random(30000) ** 3, rng.random(3000) * 0.01, edges, near]).astype(np.float64)
+    img = vals[: len(vals) // 3 * 3].reshape(-1, 1, 3)
+    c = np.clip(np.nan_to_num(img.astype(np.float64), nan=0.0, posinf=1.0, neginf=0.0), 0.0, None)
+    s = np.where(c <= t, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
+    want = np.floor(np.clip(255.0 * s, 0.0, 255.0)).astype(np.uint8)
+    np.testing.assert_array_equal(srgb_bytes(img), want)
+    f32 = img.astype(np.float32)
+    np.testing.assert_array_equal(srgb_bytes(f32), srgb_bytes(f32.astype(np.float64)))
+    # c = 1: 1.055 − 0.055 rounds below 1 (254.99999999999997 before the floor); NaN → 0, +inf → 1 → 254.
+    assert srgb_bytes(np.array([[[1.0, 1.0001, np.nan]], [[np.inf, -np.inf, 0.5]]])).tolist() == [
+        [[254, 255, 0]], [[254, 0, 187]]]
