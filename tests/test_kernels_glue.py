@@ -10,8 +10,7 @@ import pytest
 from brdflab import kernels
 from brdflab.emitter.area import DiscreteChooser, invert_cdf
 from brdflab.integrator import common
-
-ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+from tests.conftest import ROOT
 
 
 def _rows(rng, n=5000, m=3000):
