@@ -39,8 +39,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from brdflab.scene.loader import load_scene  # noqa: E402
-from brdflab.stats.check import Estimate, check_images, run_check  # noqa: E402
 from brdflab.stats.jobs import RenderJob, run_job, run_seed  # noqa: E402
+from brdflab.stats.render_check import Estimate, check_images, run_check  # noqa: E402
 
 COURSE = ROOT.parent / "shared" / "scenes" / "assignment-3" / "cbox" / "cbox_mats.xml"
 BUNDLED = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"

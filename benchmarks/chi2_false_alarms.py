@@ -28,8 +28,8 @@ sys.path.insert(0, str(ROOT))
 from brdflab.bsdf.diffuse import Diffuse  # noqa: E402
 from brdflab.bsdf.roughconductor import RoughConductor  # noqa: E402
 from brdflab.bsdf.roughsubstrate import RoughSubstrate  # noqa: E402
-from brdflab.validate import chi2 as c2  # noqa: E402
-from brdflab.validate import furnace  # noqa: E402
+from brdflab.judges.material import chi2 as c2  # noqa: E402
+from brdflab.judges.material import furnace  # noqa: E402
 
 
 def _phong():

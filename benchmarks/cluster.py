@@ -40,7 +40,7 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 
 from brdflab.cluster import Cluster, scene_bytes  # noqa: E402
-from brdflab.render import render  # noqa: E402
+from brdflab.renderer import render  # noqa: E402
 from brdflab.scene.loader import load_scene  # noqa: E402
 
 DEFAULT_SCENE = ROOT.parent / "shared" / "scenes" / "assignment-3" / "cbox" / "cbox_conductors_ems.xml"

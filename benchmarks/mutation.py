@@ -103,7 +103,8 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/plugins.py:286:16:Or->And": "the list of valid types is never empty (BUILTIN has entries for every "
     "tag), so the 'none' fallback is unreachable",
     "brdflab/plugins.py:291:57:const 1->2": "only the first close match (hint[0]) is shown",
-    "brdflab/stats/check.py:359:76:const 1.0->1.1": "placeholder divisor where syy = 0, whose quotient the outer "
+    "brdflab/stats/render_check.py:359:76:const 1.0->1.1":
+    "placeholder divisor where syy = 0, whose quotient the outer "
     "where replaces by 0",
     "brdflab/film.py:234:76:Mult->Div": "only chooses between the separable and the direct splat, which give the "
     "same sums (tests/test_film_merge.py runs both)",
@@ -120,29 +121,34 @@ EQUIVALENT: dict[str, str] = {
     "brdflab/scene/shapes.py:23:55:const 9->10": "configuration: the bump frequency of a procedural benchmark shape",
     "brdflab/scene/obj.py:407:73:const 1->2": "the fast OBJ scan then reports 'p/t' faces inconsistently and the "
     "general parser reads the file instead, with the same result",
-    "brdflab/stats/check.py:534:52:const 1.0->1.1": "the score of a window not shown only has to be negative",
-    "brdflab/stats/check.py:357:33:Gt->GtE": "a window without residual: 0/1 → κ clipped to 3, the value of the "
+    "brdflab/stats/render_check.py:534:52:const 1.0->1.1": "the score of a window not shown only has to be negative",
+    "brdflab/stats/render_check.py:357:33:Gt->GtE": "a window without residual: 0/1 → κ clipped to 3, the value of the "
     "other branch",
-    "brdflab/stats/check.py:589:95:const 4->5": "configuration: run_check's default number of runs (the CLI "
+    "brdflab/stats/render_check.py:589:95:const 4->5": "configuration: run_check's default number of runs (the CLI "
     "passes its own)",
     # brdflab/validate: a dead branch, defaults and the configuration of the checks (which inputs a battery
     # runs on, not how it judges them: any nearby value is an equally valid configuration).
-    "brdflab/validate/chi2.py:243:17:Add->Sub": "dead branch: no caller passes max_dx/max_dy to _split_cells, so "
+    "brdflab/judges/material/chi2.py:243:17:Add->Sub":
+    "dead branch: no caller passes max_dx/max_dy to _split_cells, so "
     "jx = jy = 0",
-    "brdflab/validate/chi2.py:244:17:Add->Sub": "dead branch (see chi2.py:243)",
-    "brdflab/validate/chi2.py:249:72:const 1->2": "dead branch (see chi2.py:243)",
-    "brdflab/validate/chi2.py:378:35:const 1->2": "default sample count of integrate_sphere_bins: only scales the "
+    "brdflab/judges/material/chi2.py:244:17:Add->Sub": "dead branch (see chi2.py:243)",
+    "brdflab/judges/material/chi2.py:249:72:const 1->2": "dead branch (see chi2.py:243)",
+    "brdflab/judges/material/chi2.py:378:35:const 1->2":
+    "default sample count of integrate_sphere_bins: only scales the "
     "refinement tolerance (every caller of consequence passes n)",
-    "brdflab/validate/guard.py:119:31:And->Or": "a plugin method is always called with its arrays, so len(args) > 0",
-    "brdflab/validate/emitters.py:226:43:const 20000->20001": "configuration: default sample count",
-    "brdflab/validate/consistency.py:229:59:const 200000->200001": "configuration: default sample count",
-    "brdflab/validate/battery.py:532:40:const 100000->100001": "configuration: sample cap of the light checks",
-    "brdflab/validate/battery.py:478:14:const 30.0->33.0": "configuration: incident angle of a negative control",
-    "brdflab/validate/stability.py:87:20:const 0.001->0.0011": "configuration: a roughness of the stability sweep",
-    "brdflab/validate/stability.py:93:61:const 10.0->11.0": "configuration: an index ratio of the stability sweep",
-    "brdflab/validate/consistency.py:217:29:const 3->4": "tolerance: 3 vs 4 integration errors beside the fixed "
+    "brdflab/judges/core/guard.py:119:31:And->Or": "a plugin method is always called with its arrays, so len(args) > 0",
+    "brdflab/judges/lights/samplers.py:226:43:const 20000->20001": "configuration: default sample count",
+    "brdflab/judges/material/consistency.py:229:59:const 200000->200001": "configuration: default sample count",
+    "brdflab/judges/material/battery.py:532:40:const 100000->100001": "configuration: sample cap of the light checks",
+    "brdflab/judges/material/battery.py:478:14:const 30.0->33.0": "configuration: incident angle of a negative control",
+    "brdflab/judges/material/stability.py:87:20:const 0.001->0.0011":
+    "configuration: a roughness of the stability sweep",
+    "brdflab/judges/material/stability.py:93:61:const 10.0->11.0":
+    "configuration: an index ratio of the stability sweep",
+    "brdflab/judges/material/consistency.py:217:29:const 3->4": "tolerance: 3 vs 4 integration errors beside the fixed "
     "1e-3 margin of ∫p ≤ 1",
-    "brdflab/validate/external.py:339:18:const 10->11": "a hint's minimum sample count (the hint is advice, not "
+    "brdflab/judges/samples/bsdf_checks.py:339:18:const 10->11":
+    "a hint's minimum sample count (the hint is advice, not "
     "the verdict)",
     "brdflab/bsdf/base.py:102:55:const 1.0->1.1": "the placeholder divisor of the entries the outer where sets "
     "to 0 anyway",

@@ -68,7 +68,7 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     workers
         Worker processes (default: all cores; 1 renders in this process).
     return_stats
-        Also return the :class:`brdflab.render.RenderStats` (time, samples/s, rays/s, Embree share).
+        Also return the :class:`brdflab.renderer.RenderStats` (time, samples/s, rays/s, Embree share).
     cluster
         Render on a Dask cluster instead: ``"tcp://host:8786"``, ``"local:4"`` or a
         :class:`brdflab.cluster.Cluster` (same image, see :mod:`brdflab.cluster`).
@@ -89,6 +89,6 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     >>> stats.spp
     2
     """
-    from brdflab.render import render_image
+    from brdflab.renderer import render_image
 
     return render_image(scene, spp, seed, workers, return_stats=return_stats, cluster=cluster)

@@ -123,7 +123,7 @@ def run_one(scene_path: Path, integrator: str, spp: int, runs: int, workers: int
     """
     from brdflab.imageio import write_images
     from brdflab.plugins import load_plugins
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
     from brdflab.timing import process_seconds
 

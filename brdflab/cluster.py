@@ -12,7 +12,7 @@ variable ``BRDFLAB_CLUSTER``):
 
 Renders
 -------
-:func:`brdflab.render.render` hands its (pass, tile) units to an *executor* — the built-in fork pool or a
+:func:`brdflab.renderer.render` hands its (pass, tile) units to an *executor* — the built-in fork pool or a
 :class:`Cluster`; both yield the units' tile films in unit order, and the render loop adds them in that
 fixed order, so the image is **bit-identical** to ``--workers N`` for any cluster size and any
 scheduling (every unit draws its random numbers from its own ``SeedSequence([seed, pass, tile])``).
@@ -188,7 +188,7 @@ class Cluster:
     timeout
         Seconds to wait for the scheduler to answer.
     close_after_render
-        Close after the first render (:func:`brdflab.render.render` given an address does this).
+        Close after the first render (:func:`brdflab.renderer.render` given an address does this).
 
     Use it as a context manager (a LocalCluster brdflab started is shut down on exit, and at interpreter
     exit at the latest)::
@@ -276,7 +276,7 @@ class Cluster:
 
     def results(self, scene, units: Iterable[tuple], seed: int, halt: threading.Event) -> Iterator[tuple]:
         """Yield (tile film, samples, dropped, rays, Embree seconds) per unit, in unit order, until ``halt``
-        (the executor interface of :func:`brdflab.render.render`). A lost scheduler ends the iteration
+        (the executor interface of :func:`brdflab.renderer.render`). A lost scheduler ends the iteration
         and is recorded in :attr:`failure`; other task errors are raised."""
         from distributed.client import FutureCancelledError
 

@@ -1,7 +1,7 @@
 """How hard the quadratures of ``validate``, ``chi2`` and ``plot`` work: ``--effort quick|normal|full``.
 
 The chi-square expected counts, the consistency check's ∫ p dω, the white furnace's and the plots' albedo are
-adaptive quadratures (:func:`brdflab.validate.chi2.integrate_rects`): a cell is split where its 4- and
+adaptive quadratures (:func:`brdflab.judges.material.chi2.integrate_rects`): a cell is split where its 4- and
 8-point Gauss–Legendre rules disagree, up to a depth and a number of cells per level. A smooth lobe converges
 in a few levels; a tabulated or step-shaped one (a measured BRDF, a user's histogram lobe) keeps splitting
 along every step, so the budget, not the tolerance, decides its cost. The budget is chosen here:

@@ -205,8 +205,8 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, tit
 
     from brdflab.bsdf.measured import Measured
     from brdflab.outputs import json_text, write_text
+    from brdflab.pages import page as html
     from brdflab.plugins import make_bsdf
-    from brdflab.report import page as html
     from brdflab.viz import views
     from brdflab.viz.mpl import safe_figures
 

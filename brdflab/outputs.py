@@ -8,7 +8,7 @@
 * :func:`index_root` decides where the ``index.html`` listing the reports may go: only into a folder
   brdflab owns (the default ``reports/``, or a parent that brdflab itself created for this run) — never
   into the parent of a folder the user named, where it could replace the user's own ``index.html``.
-* :func:`brdflab.report.index.write_index` additionally never replaces an ``index.html`` that brdflab
+* :func:`brdflab.pages.index.write_index` additionally never replaces an ``index.html`` that brdflab
   did not generate.
 """
 
@@ -98,7 +98,7 @@ def _legacy_folder(path: Path) -> bool:
     folder = path.parent
     if (folder / MANIFEST).exists():
         return False  # the manifest, when there is one, is the record
-    from brdflab.report.index import _ours
+    from brdflab.pages.index import _ours
 
     return any(path.name != page and (folder / page).is_file() and _ours(folder / page) for page in FOLDER_PAGES)
 
@@ -130,7 +130,7 @@ def made_by_brdflab(path: str | Path) -> bool:
             sibling = path.with_suffix(".exr")
             return sibling.is_file() and made_by_brdflab(sibling)
         if suffix in (".html", ".htm"):
-            from brdflab.report.index import _ours
+            from brdflab.pages.index import _ours
 
             return _ours(path)
     except Exception:  # unreadable or not what its suffix says: not ours

@@ -46,7 +46,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from brdflab.alloc import tune_allocator
-from brdflab.callable_modules import make_callable
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
 from brdflab.kernels import preload
@@ -59,11 +58,9 @@ from brdflab.workers import (  # noqa: F401 (re-exported: the module's former co
     _PARENT_PID,
     FORK_WORKERS,
     IN_FLIGHT,
-    PR_SET_PDEATHSIG,
     TASK_UNITS,
     UNIT_SAMPLES,
     ForkPool,
-    _die_with_parent,
     _executor,
     _pixel_offsets,
     _process_units,
@@ -324,6 +321,3 @@ def render_image(scene, spp: int | None = None, seed: int | None = None, workers
     image, stats = render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster)
     image = np.asarray(image, dtype=np.float32)
     return (image, stats) if return_stats else image
-
-
-make_callable(__name__, "brdflab.render:render_image")  # brdflab.render is also bl.render

@@ -1,7 +1,7 @@
 """The work of a render unit and the local worker pool: one (pass, tile) unit rendered into its own tile film with its
 own random stream (``_render_unit``, also what a Dask worker runs), the tiling of an image into units, and the fork
 pool that runs units on this machine's cores (workers die with their parent, results in unit order, a bounded
-number in flight). The render loop — passes, progress, time limit, the merge — is :mod:`brdflab.render`.
+number in flight). The render loop — passes, progress, time limit, the merge — is :mod:`brdflab.renderer`.
 """
 
 from __future__ import annotations
@@ -25,9 +25,10 @@ import numpy as np
 
 from brdflab.errors import BrdflabError, clean
 from brdflab.film import Film
+from brdflab.processes import die_with_parent
 from brdflab.scene.geometry import RayStats
 
-#: Target number of camera samples per work unit (see :mod:`brdflab.render`: per-unit costs against cache).
+#: Target number of camera samples per work unit (see :mod:`brdflab.renderer`: per-unit costs against cache).
 UNIT_SAMPLES = 1 << 16
 
 
@@ -122,20 +123,6 @@ _PARENT_PID = 0
 _ACTIVE_POOLS: set = set()
 
 
-PR_SET_PDEATHSIG = 1
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``)."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
-
-
 def _worker_init() -> None:
     """In a forked worker: die with the parent, leave SIGINT/SIGTERM/SIGHUP to it, count rays afresh.
 
@@ -147,7 +134,7 @@ def _worker_init() -> None:
     """
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, signal.SIG_IGN)
-    _die_with_parent()
+    die_with_parent()
     if os.getppid() != _PARENT_PID:
         os._exit(1)
     _FORK_SCENE.geometry.stats = RayStats()  # a fresh lock: the parent's may have been held at fork

@@ -1,8 +1,8 @@
 """The command line's workflows as Python functions: ``check``, ``compare``, ``report``, ``plot``, ``validate``.
 
 Each returns the result object whose ``to_dict()`` the corresponding command writes as JSON
-(:class:`~brdflab.stats.check.CheckResult`, :class:`Comparison`, :class:`~brdflab.report.variance.Study`,
-:class:`PlotResult`, :class:`~brdflab.validate.battery.Battery`) and writes the same HTML page when given an
+(:class:`~brdflab.stats.render_check.CheckResult`, :class:`Comparison`, :class:`~brdflab.pages.variance.Study`,
+:class:`PlotResult`, :class:`~brdflab.judges.material.battery.Battery`) and writes the same HTML page when given an
 ``output`` folder. Images may be arrays or EXR paths; ``plugins`` are loaded first, exactly like ``--plugin``.
 ``import brdflab as bl`` exports them as ``bl.check``, ``bl.compare``, ``bl.report``, ``bl.plot`` and
 ``bl.validate``; ``docs/api.md`` shows each in use (executed by the tests).
@@ -95,11 +95,11 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     """
     from brdflab.errors import clean
     from brdflab.outputs import prepare_folder, record_outputs
-    from brdflab.report.check_page import CHECK_FILES, write_check
+    from brdflab.pages.check_page import CHECK_FILES, write_check
     from brdflab.scene.loader import load_scene
     from brdflab.stats.attribution import attribute_check
-    from brdflab.stats.check import check_inputs, run_check
     from brdflab.stats.jobs import make_integrator
+    from brdflab.stats.render_check import check_inputs, run_check
 
     if spp < 1 or runs < 1:
         raise BrdflabError("spp and runs must be at least 1")
@@ -182,7 +182,7 @@ class Comparison:
 
 def compare(test, reference, *, flip: bool = True, crop: tuple[int, int, int, int] | None = None) -> Comparison:
     """MSE, RMSE, relative MSE, MAPE, relative bias of the mean and HDR-FLIP of ``test`` against ``reference``
-    (``brdflab compare``; definitions in :mod:`brdflab.report.metrics`).
+    (``brdflab compare``; definitions in :mod:`brdflab.pages.metrics`).
 
     Parameters
     ----------
@@ -201,9 +201,9 @@ def compare(test, reference, *, flip: bool = True, crop: tuple[int, int, int, in
     >>> round(m.bias, 6), round(m.relmse, 6)
     (0.1, 0.009615)
     """
-    from brdflab.report.metrics import compare as _compare
-    from brdflab.report.metrics import crop as _crop
-    from brdflab.report.metrics import flip_error
+    from brdflab.pages.metrics import compare as _compare
+    from brdflab.pages.metrics import crop as _crop
+    from brdflab.pages.metrics import flip_error
 
     t, r = _image(test, "test"), _image(reference, "reference")
     if crop is not None:
@@ -238,8 +238,8 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
     >>> sorted({row.integrator for row in st.rows}), st.reference_integrator
     (['direct_ems', 'direct_mats'], 'direct_mis')
     """
-    from brdflab.report.variance import run_study
-    from brdflab.report.variance_page import write_report
+    from brdflab.pages.variance import run_study
+    from brdflab.pages.variance_page import write_report
     from brdflab.stats.jobs import validate_specs
 
     _load_plugins(plugins)
@@ -251,7 +251,7 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
     files: list[str] = []
     if output is not None:
         from brdflab.outputs import prepare_folder
-        from brdflab.report.variance import REPORT_PATTERNS
+        from brdflab.pages.variance import REPORT_PATTERNS
 
         stem = Path(scene).stem
         files = ["report.html", f"{stem}_reference.png", *REPORT_PATTERNS, f"{stem}_*.png", f"{stem}_*.exr"]
@@ -321,7 +321,7 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
             names.append(s.label)
         else:
             from brdflab.builtin_types import is_builtin_class
-            from brdflab.validate.guard import CheckedBSDF, SceneCheckedBSDF
+            from brdflab.judges.core.guard import CheckedBSDF, SceneCheckedBSDF
 
             # a user's object is checked on every call, as the command checks plugins: NaN is an error, not f = 0
             wrap = not isinstance(item, CheckedBSDF) and not is_builtin_class(type(item))
@@ -367,7 +367,7 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
     >>> bat.passed
     True
     """
-    from brdflab.validate.battery import ALPHAS, THETAS, run_battery
+    from brdflab.judges.material.battery import ALPHAS, THETAS, run_battery
 
     _load_plugins(plugins)
     if samples < 1000:
@@ -380,13 +380,13 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
         raise BrdflabError("params, alphas and thetas need bsdfs")
     if output is not None:
         from brdflab.outputs import prepare_folder
-        from brdflab.report.validation import VALIDATION_FILES
+        from brdflab.pages.validation import VALIDATION_FILES
 
         prepare_folder(Path(output), list(VALIDATION_FILES), _specs(plugins), force)  # before the work
     bat = run_battery(n=samples, progress=progress, cluster=cluster, **kwargs)
     if output is not None:
         from brdflab.outputs import record_outputs
-        from brdflab.report.validation import write_validation_report
+        from brdflab.pages.validation import write_validation_report
 
         write_validation_report(bat, Path(output))
         record_outputs(Path(output), list(VALIDATION_FILES))

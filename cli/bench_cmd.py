@@ -15,7 +15,7 @@ from .options import add_plugin_option, load_plugins
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``bench`` sub-command."""
     from brdflab.bench import CASES
-    from brdflab.render import MAX_WORKERS
+    from brdflab.renderer import MAX_WORKERS
 
     p = sub.add_parser("bench", help="speed benchmarks of the fixed bench scenes",
                        description="Each case runs in a fresh process; reports medians and spread over --runs.")

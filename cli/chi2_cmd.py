@@ -1,6 +1,6 @@
 """``brdflab chi2 --bsdf NAME`` / ``--warp NAME``: chi-square tests of one sampling routine;
 ``brdflab chi2 --samples FILE --against NAME``: a file of samples from another renderer (see
-:mod:`brdflab.validate.external` and docs/external-samples.md).
+:mod:`brdflab.judges.samples.bsdf_checks` and docs/external-samples.md).
 
 ``-n/--count N`` is the number of samples brdflab draws per test. ``--samples`` names a file of samples;
 ``--samples N`` with an integer N that is not an existing file still means the count (deprecated, with a
@@ -22,7 +22,7 @@ from .options import add_bsdf_options, add_effort_option, add_force_option, bsdf
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``chi2`` sub-command."""
-    from brdflab.validate.battery import POINT_WARPS, WARPS
+    from brdflab.judges.material.battery import POINT_WARPS, WARPS
 
     p = sub.add_parser("chi2", help="chi-square goodness of fit of a BSDF or warp sampler, with an HTML report",
                        description="Samples directions, histograms them on the sphere about the lobe axis, integrates "
@@ -79,9 +79,9 @@ def _count(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     """Run the tests and write the report (``--samples FILE``: :func:`run_samples_file`)."""
     from brdflab.errors import BrdflabError
-    from brdflab.report.index import write_index
-    from brdflab.report.validation import VALIDATION_FILES, write_validation_report
-    from brdflab.validate.battery import ALPHAS, THETAS, run_battery
+    from brdflab.judges.material.battery import ALPHAS, THETAS, run_battery
+    from brdflab.pages.index import write_index
+    from brdflab.pages.validation import VALIDATION_FILES, write_validation_report
 
     if isinstance(args.samples, str):
         return run_samples_file(args)
@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
-    from brdflab.validate.failures import grouped_failures
+    from brdflab.judges.core.failures import grouped_failures
 
     grouped = [] if bat.passed else grouped_failures(bat)
     print(("ALL PASSED" if bat.passed else f"{len(bat.failures())} FAILURES, {len(grouped)} distinct (one line per "
@@ -124,8 +124,8 @@ def run(args: argparse.Namespace) -> int:
 def run_samples_file(args: argparse.Namespace) -> int:
     """``chi2 --samples FILE --against NAME``: exit 0 if the file's samples pass, 1 if not (saying which check)."""
     from brdflab.errors import BrdflabError
-    from brdflab.validate.battery import WARPS
-    from brdflab.validate.external import check_samples
+    from brdflab.judges.material.battery import WARPS
+    from brdflab.judges.samples.bsdf_checks import check_samples
 
     if args.against_emitter:
         return run_emitter_samples(args)
@@ -155,8 +155,8 @@ def run_samples_file(args: argparse.Namespace) -> int:
           f"{res.against} (chi-square threshold {res.threshold:.3g} per group)")
     for line in res.messages():
         print(line)
-    from brdflab.report.index import write_index
-    from brdflab.report.samples_report import write_samples_report
+    from brdflab.pages.index import write_index
+    from brdflab.pages.samples_report import write_samples_report
 
     path = write_samples_report(res, out)
     record_outputs(out, report_files)
@@ -171,8 +171,8 @@ def run_samples_file(args: argparse.Namespace) -> int:
 def run_emitter_samples(args: argparse.Namespace) -> int:
     """``chi2 --samples FILE --against-emitter SCENE[:INDEX]``: exit 0 if the light samples pass, 1 if not."""
     from brdflab.errors import BrdflabError
+    from brdflab.judges.samples.light_samples import check_emitter_samples, parse_target, write_emitter_report
     from brdflab.scene.loader import load_scene
-    from brdflab.validate.emitter_samples import check_emitter_samples, parse_target, write_emitter_report
 
     if args.against or args.bsdf or args.warp or args.theta or args.full or args.count is not None or args.alpha \
             or args.param:
@@ -190,7 +190,7 @@ def run_emitter_samples(args: argparse.Namespace) -> int:
     path = write_emitter_report(res, out)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
-        from brdflab.report.index import write_index
+        from brdflab.pages.index import write_index
 
         write_index(root)
     bad = [c for c in res.checks if not c.passed]

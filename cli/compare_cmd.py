@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the metrics (and write the heatmap)."""
     from brdflab.errors import ImageError
     from brdflab.imageio import read_exr
-    from brdflab.report.metrics import compare, crop, flip_error, write_heatmap, write_signed_map
+    from brdflab.pages.metrics import compare, crop, flip_error, write_heatmap, write_signed_map
 
     heatmap, signed = _figure_path(args.heatmap, "--heatmap"), _figure_path(args.signed, "--signed")
     prepare_files([p for p in (heatmap, signed) if p is not None], [args.test, args.reference], args.force,

@@ -110,7 +110,7 @@ def bsdf_spec_from_args(args: argparse.Namespace,
         if not (math.isfinite(t) and 0 <= t < 90):
             raise BrdflabError(f"--theta must be in [0, 90) degrees, got {t}")
     if is_builtin(base):  # a built-in's own input errors (a missing table file) are usage errors, before any test
-        from brdflab.validate.battery import make_named_bsdf
+        from brdflab.judges.material.battery import make_named_bsdf
 
         make_named_bsdf(name, alphas[0] if alphas else None, params)
     return name, params, alphas, args.theta
@@ -118,7 +118,7 @@ def bsdf_spec_from_args(args: argparse.Namespace,
 
 def bsdf_from_args(args: argparse.Namespace, name: str | None = None):
     """The BSDF instance the options describe (first ``--alpha`` if several)."""
-    from brdflab.validate.battery import make_named_bsdf
+    from brdflab.judges.material.battery import make_named_bsdf
 
     load_plugins(args)
     raw = name or (args.bsdf[0] if isinstance(args.bsdf, list) else args.bsdf)

@@ -17,7 +17,7 @@ PLAIN_INTERVAL = 5.0
 
 
 class Progress:
-    """Callable ``(fraction done, stats)`` for :func:`brdflab.render.render`.
+    """Callable ``(fraction done, stats)`` for :func:`brdflab.renderer.render`.
 
     Parameters
     ----------

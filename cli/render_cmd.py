@@ -20,7 +20,7 @@ from .options import add_force_option, add_plugin_option, load_plugins
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` sub-command."""
-    from brdflab.render import MAX_WORKERS
+    from brdflab.renderer import MAX_WORKERS
 
     p = sub.add_parser("render", help="render a Nori scene to EXR + PNG",
                        description="Render a Nori scene file. Output: <stem>.exr and <stem>.png beside the "
@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.cluster import ClusterError
     from brdflab.imageio import write_images
     from brdflab.outputs import check_outputs, output_folder, prepare_files
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
     from brdflab.timing import fixed_costs_line, process_seconds
 

@@ -16,7 +16,7 @@ from .options import add_force_option, add_plugin_option, load_plugins
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` sub-command."""
-    from brdflab.render import MAX_WORKERS
+    from brdflab.renderer import MAX_WORKERS
 
     p = sub.add_parser("report", help="compare integrators: error against run time, HTML report",
                        description="Render SCENE with each integrator progressively up to the largest spp, measure "
@@ -66,8 +66,8 @@ def _resolution(text: str) -> tuple[int, int]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
-    from brdflab.report.index import write_index
-    from brdflab.report.variance_summary import summary
+    from brdflab.pages.index import write_index
+    from brdflab.pages.variance_summary import summary
     from brdflab.stats.jobs import validate_specs
     from brdflab.workflows import report
 

@@ -73,7 +73,7 @@ class GracefulStop:
     def abort(signum: int) -> None:
         """Exit now: kill the render workers, remove write temporaries, ``os._exit(128 + signum)``."""
         from brdflab.imageio import remove_temporaries
-        from brdflab.render import kill_workers
+        from brdflab.renderer import kill_workers
 
         kill_workers()
         remove_temporaries()

@@ -31,8 +31,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the battery (:func:`brdflab.workflows.validate`) and write the report."""
     from brdflab.errors import BrdflabError
-    from brdflab.report.index import write_index
-    from brdflab.validate.failures import grouped_failures
+    from brdflab.judges.core.failures import grouped_failures
+    from brdflab.pages.index import write_index
     from brdflab.workflows import validate
 
     out = args.output or DEFAULT_REPORTS / "validation"

@@ -35,7 +35,7 @@ def make_cluster(queue: str | None = None, account: str | None = None, host: str
 def main() -> None:
     from brdflab.cluster import Cluster
     from brdflab.imageio import write_exr
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
 
     ap = argparse.ArgumentParser()

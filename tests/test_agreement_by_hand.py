@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from brdflab.validate import agreement as ag
+from brdflab.judges.estimators import agreement as ag
 
 
 def test_compare_blocks_by_hand():

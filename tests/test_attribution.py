@@ -14,8 +14,8 @@ from brdflab.cli.main import main
 from brdflab.imageio import write_exr
 from brdflab.scene.geometry import Geometry
 from brdflab.stats import attribution as A
-from brdflab.stats.check import Estimate, check_images
 from brdflab.stats.jobs import RenderJob, run_job, run_seed
+from brdflab.stats.render_check import Estimate, check_images
 from tests.conftest import ROOT
 
 CBOX = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"
@@ -108,7 +108,7 @@ def test_unbiased_render_is_not_attributed(monkeypatch):
 
 def test_one_emitter_wrong_is_named():
     """Two area lights; the user's renderer halves the radiance of emitter 1 only."""
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.stats.jobs import load_for
 
     scene, res = ROOT / "scenes" / "lights" / "polygon_lights_ems.xml", (96, 72)

@@ -13,9 +13,9 @@ from scipy.ndimage import gaussian_filter
 from brdflab.cli.main import main
 from brdflab.imageio import write_exr
 from brdflab.stats import blocks as B
-from brdflab.stats.check import Estimate, check_images
 from brdflab.stats.intervals import holm
 from brdflab.stats.jobs import RenderJob, run_job, run_seed
+from brdflab.stats.render_check import Estimate, check_images
 from tests.conftest import ROOT
 
 CBOX = ROOT / "scenes" / "cbox" / "cbox_diffuse.xml"
@@ -133,7 +133,7 @@ def test_scan_windows_and_constant_regions():
     """The scan's window sums are exact (an empty window stays exactly 0) and its 1 × 1 windows are the
     16 × 16 block tests; a region brdflab renders exactly (a light seen directly) tolerates float32
     rounding but not a 1 % darker light, which is reported too dark (the sign of an infinite t)."""
-    from brdflab.stats import check as C
+    from brdflab.stats import render_check as C
 
     rng = np.random.default_rng(run_seed(1630, 0, "check"))
     a = rng.random((6, 7, 4))
@@ -226,7 +226,7 @@ def test_check_cli(tmp_path, cbox_trials, capsys):
 def test_docstring_examples_run():
     import doctest
 
-    import brdflab.stats.check as mod
+    import brdflab.stats.render_check as mod
 
     res = doctest.testmod(mod)
     assert res.attempted >= 3 and res.failed == 0

@@ -26,8 +26,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from brdflab.stats.check import Estimate, check_images
 from brdflab.stats.jobs import run_seed
+from brdflab.stats.render_check import Estimate, check_images
 
 S = 32  # image side: 2 × 2 blocks of 16 pixels, one scale only (32 > S / 2)
 N_BLOCK = 256
@@ -384,7 +384,7 @@ def test_residual_method_removes_one_global_gain_by_hand(level):
 def test_a_black_image_and_a_given_reference_are_reported_as_such():
     """All-black reference and render: no bias ratio, no interval (not ±∞), consistent; a given reference
     reports no runs and no spp."""
-    from brdflab.stats.check import run_check
+    from brdflab.stats.render_check import run_check
 
     black = np.zeros((S, S, 3))
     r = check_images([black], Estimate(black.copy()), levels=1)

@@ -14,9 +14,9 @@ import pytest
 from scipy import stats
 
 import brdflab as bl
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.material.furnace import LUMINANCE, AlbedoPoint, albedo_monte_carlo
 from brdflab.stats import intervals
-from brdflab.validate import chi2 as c2
-from brdflab.validate.furnace import LUMINANCE, AlbedoPoint, albedo_monte_carlo
 
 
 # -- Pearson ------------------------------------------------------------------------------------------------
@@ -231,7 +231,7 @@ def test_albedo_curve_of_a_lambertian():
     """ρ(θ_i) of a Lambertian of albedo 0.6 is 0.6 at every angle, by quadrature and Monte Carlo (exactly:
     cosine sampling gives every sample the weight 0.6)."""
     from brdflab.bsdf.diffuse import Diffuse
-    from brdflab.validate.furnace import albedo_curve
+    from brdflab.judges.material.furnace import albedo_curve
 
     pts = albedo_curve("diffuse", lambda a: Diffuse(np.array([0.6, 0.6, 0.6])), None, [0.0, 60.0], n=2000)
     assert [p.theta for p in pts] == [0.0, 60.0] and all(p.passed for p in pts)
@@ -242,7 +242,7 @@ def test_albedo_curve_of_a_lambertian():
 
 def test_failed_samples_may_return_any_direction():
     """A sample with pdf 0 (failed) may return ω_o = 0; only directions of valid samples must be unit."""
-    from brdflab.validate.guard import CheckedBSDF, PluginFault
+    from brdflab.judges.core.guard import CheckedBSDF, PluginFault
 
     class Half(bl.BSDF):
         def eval(self, wi, wo, uv=None):

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.cli.main import main
-from brdflab.report import chi2_views as cv
-from brdflab.validate import chi2 as c2
-from brdflab.validate.battery import NoJacobianConductor, run_chi2
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.material.battery import NoJacobianConductor, run_chi2
+from brdflab.pages import chi2_views as cv
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "skewed_sampler.py"
 
@@ -46,8 +46,8 @@ def test_residual_map_locates_a_skewed_azimuth(tmp_path):
 
 
 def test_negative_control_is_shown_as_rejected(tmp_path):
-    from brdflab.report.validation import write_validation_report
-    from brdflab.validate.battery import Battery
+    from brdflab.judges.material.battery import Battery
+    from brdflab.pages.validation import write_validation_report
 
     neg = c2.bsdf_test("roughconductor without Jacobian", NoJacobianConductor(0.5, 0.3), 30.0, 20_000, seed=1,
                        params={"alpha": 0.3, "theta": 30.0})

@@ -23,7 +23,7 @@ pytest.importorskip("distributed")
 from brdflab.cluster import Cluster, ClusterError, cluster_address, map_jobs, parse_address  # noqa: E402
 from brdflab.errors import BrdflabError  # noqa: E402
 from brdflab.imageio import read_exr_header  # noqa: E402
-from brdflab.render import render  # noqa: E402
+from brdflab.renderer import render  # noqa: E402
 from brdflab.scene.loader import load_scene  # noqa: E402
 from tests.conftest import ROOT  # noqa: E402
 
@@ -202,17 +202,17 @@ def test_scheduler_lost_keeps_completed_passes(tmp_path):
 
 
 def test_cli_writes_completed_passes_when_the_cluster_fails(tmp_path, monkeypatch, capsys):
-    import brdflab.render
+    import brdflab.renderer
     from brdflab.cli.main import main
 
     scene = small_cbox(tmp_path, 32, 24, "cbox_spheres")
-    real_render = brdflab.render.render
+    real_render = brdflab.renderer.render
 
     def failing_render(sc, spp=None, **kw):
         image, stats = real_render(sc, spp=3, seed=kw.get("seed"), workers=1)
         raise ClusterError("lost the connection to the Dask scheduler at tcp://127.0.0.1:1", image, stats)
 
-    monkeypatch.setattr(brdflab.render, "render", failing_render)
+    monkeypatch.setattr(brdflab.renderer, "render", failing_render)
     monkeypatch.delenv("BRDFLAB_CLUSTER", raising=False)
     assert main(["render", str(scene), "--spp", "64", "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
@@ -302,7 +302,7 @@ def test_validation_sweep_on_the_cluster_gives_the_same_results(cluster, tmp_pat
     from brdflab import plugins
     from brdflab.cli.main import main
     from brdflab.cluster import user_bsdf_classes
-    from brdflab.validate.battery import consistency_job, plan, run_chi2
+    from brdflab.judges.material.battery import consistency_job, plan, run_chi2
 
     plugins.load_plugin(ROOT / "tests" / "plugins" / "uniform_lambert.py")  # a user BSDF: shipped to the workers
     try:
@@ -325,7 +325,7 @@ def test_validation_sweep_on_the_cluster_gives_the_same_results(cluster, tmp_pat
 
 
 def test_check_runs_on_the_cluster_give_the_same_verdict(cluster, tmp_path):
-    from brdflab.stats.check import run_check
+    from brdflab.stats.render_check import run_check
 
     scene = small_cbox(tmp_path, 32, 24, "cbox_spheres")
     user = [render(load_scene(scene), spp=4, seed=77, workers=1)[0]]

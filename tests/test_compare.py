@@ -10,7 +10,7 @@ import pytest
 from brdflab.cli.main import main
 from brdflab.errors import ImageError
 from brdflab.imageio import write_exr
-from brdflab.report.metrics import compare
+from brdflab.pages.metrics import compare
 
 
 def test_hand_computed_values():

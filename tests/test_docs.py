@@ -10,11 +10,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.validate", "brdflab.bsdf.roughconductor",
-                   "brdflab.validate.battery", "brdflab.validate.consistency", "brdflab.validate.external",
-                   "brdflab.validate.furnace", "brdflab.validate.guard", "brdflab.validate.seeding",
-                   "brdflab.validate.stability", "brdflab.workflows",
-                   "brdflab.validate.sample_files", "brdflab.fitting", "brdflab.validate.emitter_samples",
+DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.judges.public", "brdflab.bsdf.roughconductor",
+                   "brdflab.judges.material.battery", "brdflab.judges.material.consistency",
+                   "brdflab.judges.samples.bsdf_checks",
+                   "brdflab.judges.material.furnace", "brdflab.judges.core.guard", "brdflab.judges.core.seeding",
+                   "brdflab.judges.material.stability", "brdflab.workflows",
+                   "brdflab.judges.samples.tables", "brdflab.fitting", "brdflab.judges.samples.light_samples",
                    "brdflab.kernels", "brdflab.kernels.buffers"]
 
 

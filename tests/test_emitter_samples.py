@@ -1,4 +1,4 @@
-"""``chi2 --samples FILE --against-emitter SCENE[:INDEX]`` (brdflab/validate/emitter_samples.py): brdflab's own
+"""``chi2 --samples FILE --against-emitter SCENE[:INDEX]`` (brdflab/judges/samples/light_samples.py): brdflab's own
 light samples pass; each planted student bug fails with its named hint."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 from scipy import stats
 
 from brdflab.cli.main import main
+from brdflab.judges.lights.samplers import emitter_triangles, reference_points
+from brdflab.judges.samples import light_samples as ES
 from brdflab.scene.loader import load_scene
-from brdflab.validate import emitter_samples as ES
-from brdflab.validate.emitters import emitter_triangles, reference_points
 from tests.conftest import ROOT
 
 POLY = ROOT / "scenes" / "lights" / "polygon_lights_mis.xml"  # 0: hexagon (6 triangles), 1: smooth sphere

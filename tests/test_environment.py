@@ -9,8 +9,8 @@ from scipy import stats
 from brdflab.emitter.environment import EnvironmentEmitter
 from brdflab.errors import BrdflabError
 from brdflab.imageio import read_exr, write_exr
+from brdflab.judges.material import chi2 as c2
 from brdflab.math.distribution import Distribution1D, Distribution2D
-from brdflab.validate import chi2 as c2
 from tests.conftest import SHARED
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from brdflab.errors import BrdflabError
-from brdflab.validate.external import group_by_wi, read_samples
+from brdflab.judges.samples.bsdf_checks import group_by_wi, read_samples
 
 
 def _table(ncol: int, rows: int = 4) -> np.ndarray:

@@ -133,7 +133,7 @@ class _PixelNoise:
 
 @pytest.mark.parametrize(("progressive", "workers"), [(False, 1), (True, 1), (True, 2)])
 def test_render_merge_mean_and_variance(tmp_path, progressive, workers):
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
 
     body = ('<integrator type="normals"/><camera type="perspective"><float name="fov" value="40"/>'
@@ -144,7 +144,7 @@ def test_render_merge_mean_and_variance(tmp_path, progressive, workers):
     passes = []
     img, st = render(scene, spp=spp, seed=5, workers=workers,  # 2: forked workers, tiles via shared slots
                      on_pass=(lambda s, t, film: passes.append(s)) if progressive else None)
-    from brdflab.render import tiles_for
+    from brdflab.renderer import tiles_for
 
     if progressive:
         assert len(passes) >= 3 and passes[-1] == spp  # several passes were merged

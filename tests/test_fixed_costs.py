@@ -60,7 +60,7 @@ def test_whole_run_counts_the_render_done_by_workers(tmp_path):
     """The fixed-costs line's "whole run" is wall time: it includes a render the main process only waited for
     (here a render that idles 2.5 s, longer than the start-up fallback of :func:`brdflab.timing.process_seconds`
     to CPU time, which is what the line used to print: 0.3 s)."""
-    code = ("import sys, time, brdflab.render as r\n"
+    code = ("import sys, time, brdflab.renderer as r\n"
             "real = r.render\n"
             "def idle(*a, **k):\n"
             "    time.sleep(2.5)\n"

@@ -14,9 +14,9 @@ import pytest
 
 from brdflab.cli.main import build_parser, main
 from brdflab.errors import BrdflabError, clean
-from brdflab.render import iter_passes, render
+from brdflab.judges.material import chi2 as c2
+from brdflab.renderer import iter_passes, render
 from brdflab.scene.loader import load_scene
-from brdflab.validate import chi2 as c2
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 
 POINT = '<emitter type="pointlight"><point name="position" value="0,2,0"/></emitter>'

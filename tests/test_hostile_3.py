@@ -119,7 +119,7 @@ def test_made_by_brdflab_and_replaceable(tmp_path):
     ("input", "it is an input of this run"), ("users", "brdflab did not write it"),
 ])
 def test_check_outputs_refused_before_the_work(tmp_path, capsys, monkeypatch, target, pattern):
-    import brdflab.stats.check as chk
+    import brdflab.stats.render_check as chk
 
     scene = _scene(tmp_path)
     render = tmp_path / "brdflab.exr"  # a user's render named like one of check's outputs
@@ -180,7 +180,7 @@ def test_heatmap_never_replaces_a_users_image(tmp_path, capsys):
 
 # -- silent wrong results ---------------------------------------------------------------------------------------------
 def test_check_inputs_without_meaning_are_refused():
-    from brdflab.stats.check import Estimate, check_images, check_inputs
+    from brdflab.stats.render_check import Estimate, check_images, check_inputs
 
     rng = np.random.default_rng(3)
     big = rng.random((300, 257, 3))  # sides above 255
@@ -222,8 +222,8 @@ def test_check_cli_values(tmp_path, capsys):
     ("string", "returned ndarray of <U"),
 ])
 def test_plugin_values_are_checked(tmp_path, mode, pattern):
+    from brdflab.judges.core.guard import CheckedBSDF, PluginFault
     from brdflab.plugins import load_plugin, unregister_bsdf
-    from brdflab.validate.guard import CheckedBSDF, PluginFault
     from brdflab.viz import spec as bspec
     from brdflab.viz import views
 
@@ -308,7 +308,7 @@ def _samples_text(path, n=60):
     ("complex", "expected a real numeric"),
 ])
 def test_sample_files_go_through_the_input_checks(tmp_path, monkeypatch, kind, pattern):
-    from brdflab.validate.external import read_samples
+    from brdflab.judges.samples.bsdf_checks import read_samples
 
     path = {"fifo": tmp_path / "s.txt", "zero": "/dev/zero", "dir": tmp_path, "limit": tmp_path / "s.txt",
             "object": tmp_path / "s.npz", "bomb": tmp_path / "s.npz", "complex": tmp_path / "s.npy",
@@ -340,7 +340,7 @@ def test_sample_files_go_through_the_input_checks(tmp_path, monkeypatch, kind, p
 
 
 def test_grouping_by_wi_is_fast_and_merges_boundaries():
-    from brdflab.validate.external import WI_TOLERANCE, group_by_wi
+    from brdflab.judges.samples.bsdf_checks import WI_TOLERANCE, group_by_wi
 
     rng = np.random.default_rng(0)
     wi = rng.normal(size=(100_000, 3))
@@ -354,7 +354,7 @@ def test_grouping_by_wi_is_fast_and_merges_boundaries():
 
 
 def test_too_many_wi_groups_is_an_error_not_an_hour(tmp_path):
-    from brdflab.validate.external import MAX_GROUPS, check_samples
+    from brdflab.judges.samples.bsdf_checks import MAX_GROUPS, check_samples
 
     rng = np.random.default_rng(2)
     wi = rng.normal(size=(MAX_GROUPS + 100, 3))
@@ -372,8 +372,8 @@ def test_work_is_estimated_before_it_starts(tmp_path, capsys, monkeypatch):
 
     import brdflab as bl
     from brdflab.limits import check_work
-    from brdflab.render import render
-    from brdflab.stats.check import run_check
+    from brdflab.renderer import render
+    from brdflab.stats.render_check import run_check
 
     scene = bl.load_scene(_scene(tmp_path))
     for spp, pattern in ((10**30, "between 1 and 2"), (2.5, "must be an integer"), (-5, "between 1 and 2")):
@@ -422,9 +422,9 @@ def test_cluster_addresses(address, pattern):
 
 # -- tracebacks -------------------------------------------------------------------------------------------------------
 def test_report_views_of_a_broken_plugin(tmp_path):
+    from brdflab.judges.material import chi2 as c2
+    from brdflab.pages import chi2_views as cv
     from brdflab.plugins import load_plugin, unregister_bsdf
-    from brdflab.report import chi2_views as cv
-    from brdflab.validate import chi2 as c2
 
     (name,) = load_plugin(_plugin(tmp_path, "exit"))
     try:
@@ -444,7 +444,7 @@ def test_dollar_signs_are_text(tmp_path):
 
 @pytest.mark.parametrize("value", [0.0, -1.0, np.nan, 1e-8])
 def test_flip_of_a_black_reference_is_undefined(value):
-    from brdflab.report.metrics import flip_error, flip_parameters
+    from brdflab.pages.metrics import flip_error, flip_parameters
 
     ref = np.full((8, 8, 3), value, np.float32)
     assert flip_parameters(ref) is None

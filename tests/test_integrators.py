@@ -9,8 +9,8 @@ import pytest
 from scipy import stats
 
 from brdflab.imageio import read_exr
-from brdflab.render import render
-from brdflab.report.metrics import compare
+from brdflab.pages.metrics import compare
+from brdflab.renderer import render
 from brdflab.scene.loader import load_scene
 from tests.conftest import ROOT, shared_scene
 

@@ -207,7 +207,7 @@ def test_render_units_agree_between_engines(scene, integrator):
 @pytest.mark.parametrize("engine", kernels.ENGINES)
 @pytest.mark.parametrize("bsdf", ["roughconductor", "roughsubstrate", "diffuse"])
 def test_samplers_pass_chi_square_through_both_engines(engine, bsdf):
-    from brdflab.validate.chi2 import bsdf_test
+    from brdflab.judges.material.chi2 import bsdf_test
 
     m = {"roughconductor": RoughConductor(alpha=0.2), "roughsubstrate": RoughSubstrate(alpha=0.2),
          "diffuse": Diffuse(0.5)}[bsdf]
@@ -220,7 +220,7 @@ def test_samplers_pass_chi_square_through_both_engines(engine, bsdf):
 def test_white_furnace_passes_through_both_engines(engine):
     """Quadrature and Monte Carlo albedo agree (and stay ≤ 1) through either engine; both engines' albedos
     agree with each other to 1e-12 (same quadrature nodes and samples)."""
-    from brdflab.validate.furnace import furnace_test
+    from brdflab.judges.material.furnace import furnace_test
 
     m = RoughSubstrate(kd=0.8, alpha=0.3)
     with kernels.use_engine(engine):

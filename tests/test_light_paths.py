@@ -12,7 +12,7 @@ area-light set, interpolated light normals); a triangle light plus a point light
     formula again). The smooth sphere light has no closed form: its irradiance is integrated here over its
     surface (barycentric midpoint rule) with the shading-normal emission rule of spec §9.1.
 (b) ``direct_ems``, ``direct_mats`` (without the point light, which it cannot see) and ``direct_mis`` agree
-    block by block over independent renders (:mod:`brdflab.validate.agreement`: Welch t-tests, Šidák over
+    block by block over independent renders (:mod:`brdflab.judges.estimators.agreement`: Welch t-tests, Šidák over
     blocks and pairs; measured false-alarm rate 0 of 40 runs at the 0.01 level), and a planted bug (selection
     probability forgotten) is rejected.
 """
@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from brdflab.judges.estimators import agreement as ag
 from brdflab.scene.loader import load_scene
-from brdflab.validate import agreement as ag
 from tests.conftest import ROOT, write_scene
 
 LIGHTS = ROOT / "scenes" / "lights"
@@ -224,8 +224,8 @@ def test_converges_to_reference(name, bound):
     at 256 spp (4σ of the seed-to-seed spread of the mean, measured: σ ≈ 0.35 % and 0.75 % at 64 spp; the
     small bright lights make these images noisier than the bundled ones), and relMSE falls with spp."""
     from brdflab.imageio import read_exr
-    from brdflab.render import render
-    from brdflab.report.metrics import compare
+    from brdflab.pages.metrics import compare
+    from brdflab.renderer import render
 
     ref = read_exr(ROOT / "references" / f"{name}.exr")
     images = {}

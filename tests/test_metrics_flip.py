@@ -9,7 +9,7 @@ import pytest
 
 from brdflab.cli.main import main
 from brdflab.imageio import write_exr
-from brdflab.report.metrics import compare, flip_error, flip_parameters, signed_difference
+from brdflab.pages.metrics import compare, flip_error, flip_parameters, signed_difference
 
 
 def test_flip_orders_errors_and_fixes_exposure_by_reference():

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import brdflab.validate as v
+import brdflab.judges as v
 from brdflab import BSDF, BSDFSample
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.cli.main import main
-from brdflab.validate import chi2 as c2
+from brdflab.judges.material import chi2 as c2
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "phong.py"

@@ -291,7 +291,7 @@ def test_guarded_scene_bsdf_pickles(user_plugin):
     """Scenes travel to cluster workers by pickle: the guard around a user's BSDF must survive it."""
     import pickle
 
-    from brdflab.validate.guard import SceneCheckedBSDF
+    from brdflab.judges.core.guard import SceneCheckedBSDF
 
     b = SceneCheckedBSDF(plugins.make_bsdf("uniform_lambert", {"scale": "0.5"}), "scene.xml", 7)
     c = pickle.loads(pickle.dumps(b))

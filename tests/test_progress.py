@@ -81,7 +81,7 @@ def test_a_real_render_ends_with_every_pass_counted():
     from pathlib import Path
 
     import brdflab as bl
-    from brdflab.render import render
+    from brdflab.renderer import render
 
     cbox = Path(__file__).resolve().parents[1] / "scenes" / "cbox" / "cbox_diffuse.xml"
     scene = bl.load_scene(cbox, width=16, height=12)

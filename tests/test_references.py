@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from brdflab.imageio import read_exr
-from brdflab.render import render
-from brdflab.report.metrics import compare
+from brdflab.pages.metrics import compare
+from brdflab.renderer import render
 from brdflab.scene.loader import load_scene
 from tests.conftest import ROOT
 

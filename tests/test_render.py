@@ -7,7 +7,7 @@ import pytest
 
 from brdflab.cli.main import main
 from brdflab.imageio import read_exr
-from brdflab.render import pass_schedule, render
+from brdflab.renderer import pass_schedule, render
 from brdflab.scene.loader import load_scene
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 

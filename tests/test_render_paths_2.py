@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from brdflab.judges.estimators import agreement as ag
 from brdflab.scene.loader import load_scene
 from brdflab.scene.obj import load_obj
-from brdflab.validate import agreement as ag
 from tests.conftest import write_scene
 from tests.test_light_paths import LIGHTS, POINTS, UP, closed_form_at
 

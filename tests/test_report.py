@@ -11,7 +11,7 @@ import subprocess
 import pytest
 
 from brdflab.cli.main import main
-from brdflab.report.variance import Checkpoint, time_to_reach
+from brdflab.pages.variance import Checkpoint, time_to_reach
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
 from tests.test_render import LIGHT_OBJ
 

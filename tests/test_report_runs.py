@@ -10,10 +10,10 @@ import pytest
 
 from brdflab.cli.main import main
 from brdflab.imageio import write_exr
-from brdflab.report.metrics import compare
-from brdflab.report.variance import run_study
-from brdflab.report.variance_page import write_tables
-from brdflab.report.variance_summary import relmse_ratio
+from brdflab.pages.metrics import compare
+from brdflab.pages.variance import run_study
+from brdflab.pages.variance_page import write_tables
+from brdflab.pages.variance_summary import relmse_ratio
 from brdflab.stats.intervals import log_ratio_interval
 from brdflab.stats.jobs import RenderJob, make_integrator, run_job, run_seed
 from tests.conftest import ROOT
@@ -131,10 +131,10 @@ def test_power_heuristic_variant_and_mis_weights(tmp_path):
     for name in ("mis_weights_direct_mis.png", "mis_weights_direct_mis_power.png", "signed_map_direct_mis.png",
                  "report.html"):
         assert (out / name).exists(), name
-    from brdflab.report.mis_weights import mis_parts
+    from brdflab.pages.mis_weights import mis_parts
 
     em, bs = mis_parts(VEACH, "direct_mis", 4, 5, (48, 32), 1)
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.stats.jobs import load_for
 
     job = RenderJob(VEACH, "direct_mis", 4, run_seed(5, 0, "reference") ^ 0x5EED, (48, 32), 1)
@@ -150,8 +150,8 @@ def test_power_heuristic_variant_and_mis_weights(tmp_path):
 
 
 def test_self_made_reference_leaves_its_own_estimator_untested(studies, small_study):
-    from brdflab.report.variance import untested_for_bias
-    from brdflab.report.variance_summary import summary
+    from brdflab.pages.variance import untested_for_bias
+    from brdflab.pages.variance_summary import summary
 
     st = small_study
     assert st.reference_integrator == "direct_mis" and untested_for_bias(st) == (

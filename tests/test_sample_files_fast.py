@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from brdflab.errors import BrdflabError
-from brdflab.validate import sample_files as sf
+from brdflab.judges.samples import tables as sf
 
 
 def _slow(path):

@@ -61,8 +61,8 @@ def test_grazing_irradiance_below_a_light_plane_is_the_closed_form(tmp_path):
     13–18 % darker (docs/benchmarks.md)."""
     from scipy import stats
 
+    from brdflab.judges.estimators import agreement as ag
     from brdflab.scene.loader import load_scene
-    from brdflab.validate import agreement as ag
     from tests.conftest import write_scene
     from tests.test_light_paths import lambert
 

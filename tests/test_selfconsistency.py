@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import brdflab.validate as v
+import brdflab.judges as v
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.cli.main import main
-from brdflab.validate import selfconsistency as sc
+from brdflab.judges.samples import selfconsistency as sc
 
 sys.path.insert(0, str(Path(__file__).parent))
 from vndf_sampler import sample_vndf, vndf_pdf, vndf_rows  # noqa: E402
@@ -53,7 +53,7 @@ def _text(res) -> str:
 
 def test_vndf_generator_is_correct():
     """The test helper itself: its directions follow its pdf (plain chi-square, its own pilot) with ∫p = valid."""
-    from brdflab.validate import chi2 as c2
+    from brdflab.judges.material import chi2 as c2
 
     wi1 = c2.incident(60.0)
     rng = np.random.default_rng(3)
@@ -207,8 +207,8 @@ def test_chi2_samples_writes_the_report(tmp_path, capsys):
 
 
 def test_validate_groups_the_jacobian_bug_into_one_line_per_cause():
-    from brdflab.validate.battery import NoJacobianConductor, run_battery
-    from brdflab.validate.failures import grouped_failures
+    from brdflab.judges.core.failures import grouped_failures
+    from brdflab.judges.material.battery import NoJacobianConductor, run_battery
 
     entry = [("nojac", lambda a, p: NoJacobianConductor(0.5, a))]
     bat = run_battery(n=4_000, bsdfs=entry, warp_names=[], alphas=(0.1, 0.5), thetas=(0.0, 60.0, 89.0),
@@ -224,14 +224,14 @@ def test_validate_groups_the_jacobian_bug_into_one_line_per_cause():
 
 
 def test_furnace_lines_carry_alpha():
-    from brdflab.validate.furnace import AlbedoPoint
+    from brdflab.judges.material.furnace import AlbedoPoint
 
     p = AlbedoPoint("x", 0.3, 45.0, 0.5, 0.1, 1e-3)
     assert "α=0.3 θ_i=45°" in p.summary()
 
 
 def test_doctests():
-    from brdflab.report import samples_report
+    from brdflab.pages import samples_report
 
     for mod in (sc, samples_report):
         assert doctest.testmod(mod).failed == 0

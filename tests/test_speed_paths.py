@@ -25,7 +25,7 @@ from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.emitter.area import DiscreteChooser
 from brdflab.math.distribution import AliasTable
-from brdflab.render import render
+from brdflab.renderer import render
 from brdflab.scene.loader import load_scene
 from brdflab.texture import CheckerTexture
 from tests.conftest import ROOT
@@ -105,9 +105,9 @@ def test_family_evaluation_matches_each_member(kind):
 
 @pytest.mark.parametrize("fork", [True, False])
 def test_parallel_workers_match_one_worker_and_count_rays(fork, monkeypatch):
-    import brdflab.render
+    import brdflab.renderer
 
-    monkeypatch.setattr(brdflab.render, "FORK_WORKERS", fork)  # False: the thread pool used off Linux
+    monkeypatch.setattr(brdflab.renderer, "FORK_WORKERS", fork)  # False: the thread pool used off Linux
     s = load_scene(ROOT / "scenes/veach/veach_mis.xml")
     s.camera.width, s.camera.height = 96, 64
     a, sa = render(s, spp=8, seed=2, workers=1)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
-from brdflab.validate.battery import make_named_bsdf
+from brdflab.judges.material.battery import make_named_bsdf
 from tests.test_golden import (
     ETA_EXT,
     ETA_INT,

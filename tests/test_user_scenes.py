@@ -7,7 +7,7 @@ import pytest
 
 from brdflab.errors import BrdflabError
 from brdflab.imageio import read_exr
-from brdflab.render import render
+from brdflab.renderer import render
 from brdflab.scene.loader import load_scene
 from tests.conftest import shared_scene
 

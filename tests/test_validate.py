@@ -10,9 +10,9 @@ from brdflab.bsdf.diffuse import Diffuse
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.cli.main import main
-from brdflab.validate import chi2 as c2
-from brdflab.validate import consistency, furnace, stability
-from brdflab.validate.battery import ALPHAS, THETAS, NoJacobianConductor, plan, run_battery, run_chi2
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.material import consistency, furnace, stability
+from brdflab.judges.material.battery import ALPHAS, THETAS, NoJacobianConductor, plan, run_battery, run_chi2
 
 N = 40_000
 
@@ -129,7 +129,7 @@ def test_cli_chi2_and_validate_reports(tmp_path, capsys):
 
 
 def test_battery_small_full_run(tmp_path):
-    from brdflab.report.validation import write_validation_report
+    from brdflab.pages.validation import write_validation_report
 
     bat = run_battery(n=20_000, bsdfs=["roughconductor"], warp_names=["beckmann"], alphas=(0.1,), thetas=(30.0,),
                       furnace_alphas=(0.1, 1.0), furnace_thetas=(0.0, 60.0, 85.0))

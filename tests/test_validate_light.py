@@ -7,9 +7,10 @@ import numpy as np
 
 import brdflab as bl
 from brdflab.emitter.area import DiscreteChooser
+from brdflab.judges.estimators import agreement
+from brdflab.judges.lights import samplers as emitters
+from brdflab.judges.material.battery import Battery, run_battery
 from brdflab.scene.loader import load_scene
-from brdflab.validate import agreement, emitters
-from brdflab.validate.battery import Battery, run_battery
 from tests.conftest import ROOT
 
 N = 40_000
@@ -81,7 +82,7 @@ def test_subtriangle_cells_have_equal_area():
 def test_battery_hook_and_report(tmp_path, monkeypatch):
     """run_battery(light_transport=True) fills the light-transport fields, counts them in the verdict, and
     the report shows them; a failed agreement or an unrejected control fails the battery."""
-    from brdflab.report.validation import write_validation_report
+    from brdflab.pages.validation import write_validation_report
 
     s = load_scene(ROOT / "scenes/cbox/cbox_diffuse.xml")
     chi, pdfs = bl.emitter_checks(s, n=10_000)

@@ -12,160 +12,39 @@ function                    checks
 :func:`stability_test`      extreme directions give no NaN, infinity, negative value or exception
 :func:`run_battery`         all of them over α/θ (and a plugin's declared ``sweep``) grids
 :func:`check_samples`       a file of samples from another renderer against brdflab's pdf (see
-                            :mod:`brdflab.validate.external`)
+                            :mod:`brdflab.judges.samples.bsdf_checks`)
 ==========================  =================================================================================
 
 Each test draws from its own random stream: the default seed is derived from the test's identity (BSDF
-type, parameters, θ, which test; :func:`~brdflab.validate.seeding.test_seed`). A BSDF that raises, returns
+type, parameters, θ, which test; :func:`~brdflab.judges.core.seeding.test_seed`). A BSDF that raises, returns
 wrong shapes, NaN/inf or negative values gets a failed result naming the method, the parameters and the
-first offending directions (:class:`~brdflab.validate.guard.CheckedBSDF`).
+first offending directions (:class:`~brdflab.judges.core.guard.CheckedBSDF`).
 
-``bl.validate(...)`` is :func:`brdflab.workflows.validate`: this package is also callable under that name (the
-package and the function share the name ``validate`` on :mod:`brdflab`, so the package forwards a call).
+The package is laid out by what is judged: ``material/`` (a BSDF: its sampler, pdf, energy, stability; the
+battery), ``samples/`` (samples written by another renderer: BSDF and light samples), ``lights/`` (brdflab's own
+light samplers), ``estimators/`` (integrators of one scene agree); ``core/`` holds the shared machinery (bins,
+quadrature, seeds, the plugin guard, grouping of failures). The functions themselves are in
+:mod:`brdflab.judges.public`; ``bl.validate(...)`` (the whole battery as a command) is
+:func:`brdflab.workflows.validate`.
 """
 
-from __future__ import annotations
-
-import zlib
-from collections.abc import Callable
-from typing import Any
-
-import numpy as np
-
-from brdflab.callable_modules import make_callable
-from brdflab.validate import chi2 as _c2
-from brdflab.validate.battery import Battery, BSDFEntry, run_battery
-from brdflab.validate.chi2 import SIGNIFICANCE, Chi2Result
-from brdflab.validate.consistency import ConsistencyResult, consistency_test
-from brdflab.validate.furnace import AlbedoPoint, FurnaceResult, furnace_test
-from brdflab.validate.guard import CheckedBSDF, PluginFault
-from brdflab.validate.seeding import bsdf_identity, test_seed
-from brdflab.validate.stability import StabilityResult, StabilityRow, stability_test
-
-
-def default_seed(*parts: Any) -> int:
-    """A reproducible seed distinct for every test identity ``parts`` (type, parameters, angle, check)."""
-    return zlib.crc32(repr(tuple(_plain(p) for p in parts)).encode())
-
-
-def _plain(p: Any) -> Any:
-    if isinstance(p, np.ndarray):
-        return tuple(np.round(p.ravel(), 12).tolist())
-    if isinstance(p, dict):
-        return tuple(sorted((k, _plain(v)) for k, v in p.items()))
-    if isinstance(p, float):
-        return round(p, 12)
-    return p
-
-
-def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | None = None,
-              threshold: float | None = None, name: str | None = None, params: dict | None = None) -> Chi2Result:
-    """Chi-square goodness of fit of ``bsdf.sample`` against ``bsdf.pdf`` for one incident angle.
-
-    Bins are placed by a pilot sample of the BSDF's own sampler on an independent stream (equal
-    probability wherever the lobe is); expected counts come from integrating ``pdf`` over every bin by
-    adaptive quadrature; failed samples (pdf 0) form one more category whose expectation is 1 − ∫ p dω.
-    See :mod:`brdflab.validate.chi2`.
-
-    Parameters
-    ----------
-    bsdf
-        Any :class:`brdflab.BSDF`, a user's plugin included.
-    theta
-        Incident angle θ_i in degrees (ω_i in the x–z plane).
-    samples
-        Number of observed samples (the pilot adds a quarter more).
-    seed
-        Default: derived from the BSDF's type, its parameters and θ, so that two configurations never share
-        random numbers.
-    threshold
-        Per-test significance (the test passes when p > threshold).
-    name, params
-        For messages (default: the type name and the BSDF's scalar attributes).
-
-    Returns
-    -------
-    Chi2Result
-        Statistic, dof, p-value, ``passed``, the observed and expected histograms, the seed, ``message``.
-
-    Examples
-    --------
-    >>> import brdflab.validate as v
-    >>> from brdflab.bsdf.roughconductor import RoughConductor
-    >>> r = v.chi2_test(RoughConductor(R0=0.5, alpha=0.1), theta=30.0, samples=20_000)
-    >>> r.passed, r.observed.shape == r.expected.shape
-    (True, True)
-    """
-    from brdflab.limits import check_test_arguments
-    from brdflab.validate.guard import bsdf_params, describe
-
-    theta, samples, threshold = check_test_arguments(theta, samples, threshold)
-    params = dict(params if params is not None else bsdf_params(bsdf))
-    name = name or describe(bsdf)
-    if seed is None:
-        seed = test_seed("chi2", bsdf_identity(bsdf), params, float(theta))
-    return _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
-                         threshold=SIGNIFICANCE if threshold is None else threshold)
-
-
-def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: int | None = None,
-                   threshold: float | None = None, name: str = "warp") -> Chi2Result:
-    """Chi-square test of a square-to-sphere warp ``warp(u) -> (N, 3)`` against ``pdf(w) -> (N,)``.
-
-    Examples
-    --------
-    >>> import brdflab as bl
-    >>> r = bl.warp_chi2_test(bl.warps.square_to_cosine_hemisphere, bl.warps.square_to_cosine_hemisphere_pdf,
-    ...                       samples=50_000)
-    >>> r.passed
-    True
-    """
-    from brdflab.limits import check_test_arguments
-
-    _, samples, threshold = check_test_arguments(None, samples, threshold)
-    seed = test_seed("warp", name) if seed is None else seed
-    return _c2.warp_test(name, warp, pdf, int(samples), seed=seed,
-                         threshold=SIGNIFICANCE if threshold is None else threshold)
-
-
-def check_samples(*args, **kwargs):
-    """Chi-square and pdf/weight comparison of external samples (:func:`brdflab.validate.external.check_samples`)."""
-    from brdflab.validate.external import check_samples as _check
-
-    return _check(*args, **kwargs)
-
-
-def emitter_checks(scene, n: int = 100_000, seed: int = 0) -> tuple[list, list]:
-    """Chi-square tests of every emitter sampler of ``scene`` (area lights by area, the fused set, the
-    environment's directions) and ``sample().pdf`` against the hit pdf; see :mod:`brdflab.validate.emitters`.
-    Returns (chi-square results, pdf checks)."""
-    from brdflab.integrator.common import area_light_set
-    from brdflab.validate import emitters
-
-    chi = []
-    for k, em in enumerate(scene.emitters):
-        if em.is_environment:
-            chi.append(emitters.environment_test(f"environment {k}", em, n, default_seed("env", k, seed)))
-        elif not em.is_delta:
-            ref, _ = emitters.reference_points(scene, seed=seed)
-            chi.append(emitters.area_emitter_test(f"area light {k}", em, ref, n, default_seed("area", k, seed)))
-    if area_light_set(scene) is not None:
-        ref, _ = emitters.reference_points(scene, seed=seed)
-        chi.append(emitters.fused_set_test("fused area lights", scene, ref, n, default_seed("fused", seed)))
-    return chi, emitters.pdf_checks(scene, str(getattr(scene, "path", "scene")), seed=seed)
-
-
-def estimator_agreement(path: Any, **kwargs: Any):
-    """ems vs mats vs mis on one scene file; see :func:`brdflab.validate.agreement.estimator_agreement`."""
-    from brdflab.validate.agreement import estimator_agreement as _agree
-
-    return _agree(path, **kwargs)
-
+from brdflab.judges.core.guard import CheckedBSDF, PluginFault
+from brdflab.judges.core.seeding import test_seed
+from brdflab.judges.material.battery import Battery, BSDFEntry, run_battery
+from brdflab.judges.material.chi2 import SIGNIFICANCE, Chi2Result
+from brdflab.judges.material.consistency import ConsistencyResult, consistency_test
+from brdflab.judges.material.furnace import AlbedoPoint, FurnaceResult, furnace_test
+from brdflab.judges.material.stability import StabilityResult, StabilityRow, stability_test
+from brdflab.judges.public import (
+    check_samples,
+    chi2_test,
+    default_seed,
+    emitter_checks,
+    estimator_agreement,
+    warp_chi2_test,
+)
 
 __all__ = ["AlbedoPoint", "BSDFEntry", "Battery", "CheckedBSDF", "Chi2Result", "ConsistencyResult", "FurnaceResult",
            "PluginFault", "SIGNIFICANCE", "StabilityResult", "StabilityRow", "check_samples", "chi2_test",
            "consistency_test", "default_seed", "furnace_test", "run_battery", "stability_test", "test_seed",
            "warp_chi2_test", "emitter_checks", "estimator_agreement"]
-
-
-make_callable(__name__, "brdflab.workflows:validate")

@@ -178,9 +178,9 @@ def _child_setup():
     its own, so a terminal's signals reach only the parent, which stops the run its own way."""
     if os.name != "posix":
         return None
-    from brdflab.workers import _die_with_parent
+    from brdflab.processes import die_with_parent
 
-    return _die_with_parent
+    return die_with_parent
 
 
 def _remove_stale(root: Path, age: float = 3600.0) -> None:

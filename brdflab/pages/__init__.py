@@ -1,9 +1,4 @@
 """HTML pages and their figures: the variance study (``brdflab report``), check, chi-square and validation pages.
 
-``bl.report(...)`` is :func:`brdflab.workflows.report`: this package is also callable under that name (the
-package and the function share the name ``report`` on :mod:`brdflab`, so the package forwards a call).
+``bl.report(...)`` is :func:`brdflab.workflows.report`, which writes its page through this package.
 """
-
-from brdflab.callable_modules import make_callable
-
-make_callable(__name__, "brdflab.workflows:report")

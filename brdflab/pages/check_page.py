@@ -8,7 +8,7 @@ import numpy as np
 
 from brdflab.imageio import _atomic_write, write_exr, write_png
 from brdflab.outputs import json_text, write_text
-from brdflab.report import page as html
+from brdflab.pages import page as html
 
 #: The files :func:`write_check` writes into its folder (checked by :func:`brdflab.outputs.prepare_folder`).
 CHECK_FILES = ("check.json", "user.png", "brdflab.png", "brdflab.exr", "block_map.png", "z_map.png", "check.html")
@@ -122,7 +122,7 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
     body += html.section("Method", html.esc_p(
         "Block means of your render and of brdflab's independent estimate are compared per channel with a t-test; "
         "the block tests share α/2 by Holm's step-down procedure and the whole-image mean test gets α/2, so the "
-        "chance of calling an unbiased render biased is at most α. See brdflab/stats/check.py."))
+        "chance of calling an unbiased render biased is at most α. See brdflab/stats/render_check.py."))
     path = out / "check.html"
     write_text(path, html.page(f"brdflab check — {scene.name}", body))
     return path

@@ -1,6 +1,6 @@
 """Views of chi-square tests a person can read: (φ, cos θ) histograms, residual maps, warped points.
 
-The test itself bins directions in θ′ at quantiles of a pilot sample (:mod:`brdflab.validate.chi2`), so
+The test itself bins directions in θ′ at quantiles of a pilot sample (:mod:`brdflab.judges.material.chi2`), so
 its *observed* histogram is nearly flat by construction and a fault shows only in the *expected* one.
 For display, :func:`direction_view` draws a fresh sample from the same sampler (its own random stream)
 and bins it **uniformly in (φ′, cos θ′)** about the test's axis — equal solid angle per bin, as Nori's
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
-from brdflab.validate.guard import checked
+from brdflab.judges.core.guard import checked
+from brdflab.judges.material import chi2 as c2
 
 #: Fraction of the samples allowed outside the zoomed cos θ′ range.
 ZOOM_TAIL = 0.002
@@ -65,7 +65,7 @@ class View:
 
 def sampler_of(result: c2.Chi2Result) -> Sampler | None:
     """Rebuild the sampler of a battery result from its name and parameters, or None."""
-    from brdflab.validate import battery as bt
+    from brdflab.judges.material import battery as bt
 
     name, params = result.name, dict(result.params or {})
     try:

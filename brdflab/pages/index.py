@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from brdflab.report import page as html
+from brdflab.pages import page as html
 
 
 def write_index(root: Path) -> Path | None:

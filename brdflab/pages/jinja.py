@@ -1,4 +1,4 @@
-"""Jinja2 templates of the HTML pages (``brdflab/report/templates/``): layout in templates, data in Python.
+"""Jinja2 templates of the HTML pages (``brdflab/pages/templates/``): layout in templates, data in Python.
 
 Jinja2 (a well-kept, widely used template engine) replaces string concatenation: a page's structure, CSS
 and JavaScript live in ``templates/`` and are filled with escaped data (autoescaping is on; values
@@ -8,18 +8,24 @@ and images are embedded with the ``data_uri`` filter.
 
 from __future__ import annotations
 
+import base64
 from functools import cache
 from pathlib import Path
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 
+def data_uri(path: Path) -> str:
+    """Embed an image file as a data URI (PNG or SVG)."""
+    path = Path(path)
+    mime = "image/svg+xml" if path.suffix.lower() == ".svg" else "image/png"
+    return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
 @cache
 def environment():
     """The shared :class:`jinja2.Environment` (autoescaping, ``data_uri`` filter, ``page.css``/``page.js``)."""
     import jinja2
-
-    from brdflab.report.page import data_uri
 
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
                              trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)

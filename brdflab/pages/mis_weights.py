@@ -24,7 +24,7 @@ from brdflab.imageio import _atomic_write
 def mis_parts(scene_path: Path, spec: str, spp: int, seed: int, resolution=None, workers=None
               ) -> tuple[np.ndarray, np.ndarray]:
     """(emitter part, BSDF part) images of an MIS integrator spec, rendered with the same seed."""
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.stats.jobs import RenderJob, load_for, run_seed
 
     job = RenderJob(Path(scene_path), spec, spp, run_seed(seed, 0, "reference") ^ 0x5EED, resolution, workers)

@@ -4,7 +4,7 @@ The same page as the other chi-square reports (template ``validation.html.j2``):
 of every ω_i group at the top, a table with one row per group (thumbnail of the test bins: observed |
 expected | residual), and for every group a figure with both tests in their own bins:
 
-* top, the **self-consistency** test (:mod:`brdflab.validate.selfconsistency`): observed = Σ_k r(ω_k)/p_k
+* top, the **self-consistency** test (:mod:`brdflab.judges.samples.selfconsistency`): observed = Σ_k r(ω_k)/p_k
   per bin (the file's directions weighted by brdflab's density over the file's pdf column), expected =
   N ∫_bin r dω, and the residual (O − E)/√E; this decides the verdict when the file has a pdf column;
 * bottom, the chi-square test against **brdflab's own sampler** (plain counts against N ∫_bin p dω): it
@@ -18,14 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
+from brdflab.judges.material import chi2 as c2
 
 
 def _panel(fig, axes, obs: np.ndarray, exp: np.ndarray, theta_edges: np.ndarray, label: str) -> None:
     import matplotlib
     from matplotlib.colors import TwoSlopeNorm
 
-    from brdflab.report.chi2_views import bin_maps
+    from brdflab.pages.chi2_views import bin_maps
 
     n_t = obs.shape[0]
     bin_maps(fig, axes, obs, exp, theta_edges, (f"{label}: observed", f"{label}: expected"))
@@ -62,8 +62,8 @@ def group_figure(res, g, title: str):
 
 
 def _thumb(g) -> str:
-    from brdflab.report import chi2_views as cv
-    from brdflab.report.validation import _png_uri
+    from brdflab.pages import chi2_views as cv
+    from brdflab.pages.validation import _png_uri
 
     src = g.sc if g.sc is not None and g.sc.observed is not None else g.chi2
     if src is None or src.observed is None:
@@ -73,20 +73,20 @@ def _thumb(g) -> str:
 
 
 def write_samples_report(res, out: Path) -> Path:
-    """Write the report of an :class:`~brdflab.validate.external.ExternalResult` into ``out``; return the HTML.
+    """Write the report of an :class:`~brdflab.judges.samples.bsdf_checks.ExternalResult` into ``out``; return the HTML.
 
     Examples
     --------
     >>> import numpy as np, tempfile, pathlib
     >>> from brdflab.math import warps
-    >>> from brdflab.validate.external import check_samples
+    >>> from brdflab.judges.samples.bsdf_checks import check_samples
     >>> d = pathlib.Path(tempfile.mkdtemp())
     >>> wo = warps.square_to_cosine_hemisphere(np.random.default_rng(5).random((5_000, 2)))
     >>> np.save(d / "cos.npy", np.column_stack([wo, wo[:, 2] / np.pi]))
     >>> write_samples_report(check_samples(d / "cos.npy", "cosine_hemisphere"), d / "r").name
     'index.html'
     """
-    from brdflab.report.jinja import render
+    from brdflab.pages.jinja import render
     from brdflab.viz.figures import save
 
     out.mkdir(parents=True, exist_ok=True)

@@ -4,7 +4,7 @@ Same look as the variance reports (template ``templates/validation.html.j2`` on 
 written to ``<dir>/index.html`` with the figures embedded, so the file opens from the file system.
 Chi-square tests are shown as thumbnails of their own bins (observed | expected | residual) and, for
 failures, the negative controls and one representative per sampler, as detailed (φ′, cos θ′) views with
-residual maps (:mod:`brdflab.report.chi2_views`). A rejected negative control is shown as what must happen
+residual maps (:mod:`brdflab.pages.chi2_views`). A rejected negative control is shown as what must happen
 ("rejected, as it must be"), not as a pass.
 """
 
@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.material.battery import Battery, _fmt
+from brdflab.judges.material.stability import NOTES
 from brdflab.outputs import write_text
-from brdflab.report import chi2_views as cv
-from brdflab.validate import chi2 as c2
-from brdflab.validate.battery import Battery, _fmt
-from brdflab.validate.stability import NOTES
+from brdflab.pages import chi2_views as cv
 
 #: The files :func:`write_validation_report` may write into its folder (glob patterns; see
 #: :func:`brdflab.outputs.prepare_folder`).
@@ -89,10 +89,10 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                             view_samples: int | None = None) -> Path:
     """Write the report into ``out`` (``index.html`` plus figures); return the HTML path.
 
-    ``view_samples``: samples drawn for each detailed (φ′, cos θ′) view (:mod:`brdflab.report.chi2_views`);
+    ``view_samples``: samples drawn for each detailed (φ′, cos θ′) view (:mod:`brdflab.pages.chi2_views`);
     by default as many as the test itself counted, between 20 000 and 200 000.
     """
-    from brdflab.report.jinja import render
+    from brdflab.pages.jinja import render
     from brdflab.viz.figures import save
 
     out.mkdir(parents=True, exist_ok=True)

@@ -5,7 +5,7 @@ in ``runs`` **independent runs** (own seeds, :mod:`brdflab.stats.jobs`; one func
 cluster can map them). Each run is progressive: one render to the largest sample count yields every
 smaller checkpoint (1, 2, 4, …) with its elapsed time. Every checkpoint of every run is compared with a
 reference (given, or ``direct_mis`` renders made first with independent seeds) using the metrics of
-:mod:`brdflab.report.metrics`; per (integrator, spp) the runs give means and 95 % intervals:
+:mod:`brdflab.pages.metrics`; per (integrator, spp) the runs give means and 95 % intervals:
 
 * relMSE, MSE, MAPE, seconds: t intervals over the runs on log scale (delta method; positive);
 * bias = mean(x)/mean(r) − 1 of the image mean (over R, G, B): t interval whose variance adds the
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.imageio import read_exr
-from brdflab.report.metrics import compare
+from brdflab.pages.metrics import compare
 
 #: Human-readable names of the integrators.
 LABELS = {"direct_ems": "emitter sampling", "direct_mats": "BSDF sampling", "direct_mis": "MIS (balance)",
@@ -178,11 +178,11 @@ def measure_run(job, ref: np.ndarray, figure_spp: tuple[int, ...], run: int, fli
                 cluster=None) -> RunResult:
     """Render ``job`` progressively and measure every pass boundary against ``ref`` (one independent run).
 
-    ``flip_params`` (from :func:`brdflab.report.metrics.flip_parameters`) adds HDR-FLIP at the final
+    ``flip_params`` (from :func:`brdflab.pages.metrics.flip_parameters`) adds HDR-FLIP at the final
     sample count of run 0 (FLIP costs ~0.3 s per exposure step even for small images). ``cluster``: the
-    run's (pass, tile) units go there (:func:`brdflab.render.render`).
+    run's (pass, tile) units go there (:func:`brdflab.renderer.render`).
     """
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.stats.jobs import load_for
 
     res = RunResult(job.integrator, run, [])
@@ -193,7 +193,7 @@ def measure_run(job, ref: np.ndarray, figure_spp: tuple[int, ...], run: int, fli
         m = compare(img, ref)
         fl = None
         if flip_params is not None and spp == job.spp and run == 0:
-            from brdflab.report.metrics import flip_error
+            from brdflab.pages.metrics import flip_error
 
             fl = flip_error(img, ref, flip_params)
         res.checkpoints.append(Checkpoint(job.integrator, spp, seconds, m.relmse, m.mse, m.mape, m.bias, run, fl))
@@ -226,13 +226,13 @@ def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=
     Returns (mean image, relMSE of the mean against the truth (estimated), relative variance of its image
     mean, seconds).
     """
-    from brdflab.stats.check import _side_from_runs, _with_mean_channel
     from brdflab.stats.jobs import RenderJob, run_job, run_seed
+    from brdflab.stats.render_check import _side_from_runs, _with_mean_channel
 
     jobs = [RenderJob(Path(scene_path), "direct_mis", spp, run_seed(seed, k, "reference"), resolution, workers)
             for k in range(runs)]
     if cluster is not None:
-        from brdflab.render import render
+        from brdflab.renderer import render
         from brdflab.stats.jobs import load_for
 
         def run_job(job):  # noqa: F811 - the same run, its units on the cluster
@@ -257,7 +257,7 @@ def given_reference_noise(ref: np.ndarray, finals: list[np.ndarray]) -> tuple[fl
     """Noise of a given reference from K runs x_k of an integrator (module docstring):
     τ² = (K·(ā − r)² − mean_k (x_k − r)²)/(K − 1) per pixel, after removing one global scale fit;
     returns (relMSE of the reference, relative variance of its image mean)."""
-    from brdflab.stats.check import _side_from_runs, _with_mean_channel
+    from brdflab.stats.render_check import _side_from_runs, _with_mean_channel
 
     x = np.stack([np.asarray(f, dtype=np.float64) for f in finals])
     k = x.shape[0]
@@ -366,7 +366,7 @@ def run_study(
                   reference_integrator=None if reference is not None else "direct_mis")
     flip_params = None
     if flip:
-        from brdflab.report.metrics import flip_parameters
+        from brdflab.pages.metrics import flip_parameters
 
         flip_params = flip_parameters(ref)
     jobs = study_jobs(scene_path, integrators, max_spp, runs, seed, resolution, workers)
@@ -390,7 +390,7 @@ def run_study(
     study.rows = [r for r in study.all_rows if r.spp in spp_list]
     flag_bias(study.rows)
     if mis_weights:
-        from brdflab.report.mis_weights import mis_weight_image
+        from brdflab.pages.mis_weights import mis_weight_image
 
         for name in integrators:
             if name.split(":")[0] == "direct_mis":

@@ -1,6 +1,6 @@
 """The variance study's page (``brdflab report``): tables (``results.csv``/``results.json``), error-against-time and
 -spp plots with their bands, per-pixel error maps, MIS weight images, equal-spp and equal-time rows and
-``report.html``. The study itself (runs, reference, statistics, statements) is :mod:`brdflab.report.variance`.
+``report.html``. The study itself (runs, reference, statistics, statements) is :mod:`brdflab.pages.variance`.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.imageio import write_exr, write_png
-from brdflab.report import page as html
-from brdflab.report.metrics import relmse_map
-from brdflab.report.variance import BIAS_ALPHA, LEVEL, Study, label, untested_for_bias
-from brdflab.report.variance_summary import _fmt_ci, equal_time, reference_warning, speedup, summary
+from brdflab.pages import page as html
+from brdflab.pages.metrics import relmse_map
+from brdflab.pages.variance import BIAS_ALPHA, LEVEL, Study, label, untested_for_bias
+from brdflab.pages.variance_summary import _fmt_ci, equal_time, reference_warning, speedup, summary
 
 COLORS = {"direct_ems": "#1f77b4", "direct_mats": "#d62728", "direct_mis": "#2ca02c",
           "direct_mis:balance": "#2ca02c", "direct_mis:power": "#9467bd"}
@@ -127,7 +127,7 @@ def plot_error_maps(study: Study, out: Path) -> dict[str, Path]:
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
-    from brdflab.report.metrics import write_signed_map
+    from brdflab.pages.metrics import write_signed_map
 
     top = max(study.spp)
     maps = {n: relmse_map(study.images[(n, top)], study.reference) for n in study.integrators}
@@ -202,7 +202,7 @@ def write_report(study: Study, out: Path) -> Path:
         [(p, label(n.split("#")[0]) + (" — signed (blue: too dark, red: too bright)" if "#" in n else ""))
          for n, p in maps.items()], cls="plot")))
     if study.mis_weights:
-        from brdflab.report.mis_weights import write_weight_image
+        from brdflab.pages.mis_weights import write_weight_image
 
         items = []
         for n, wimg in study.mis_weights.items():

@@ -1,6 +1,6 @@
 """What a variance study says: speed-ups and error ratios with intervals, times to reach an error, the equal-time
 pick, the bias flags and the summary lines (statements only where an interval or a Holm-corrected test supports
-them). The study itself is :mod:`brdflab.report.variance`, its page :mod:`brdflab.report.variance_page`.
+them). The study itself is :mod:`brdflab.pages.variance`, its page :mod:`brdflab.pages.variance_page`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from brdflab.report.variance import (
+from brdflab.pages.variance import (
     BIAS_ALPHA,
     LEVEL,
     REF_NOISE_WARN,

@@ -328,7 +328,7 @@ def _mesh_bsdf(bsdf_spec: ObjectSpec | None) -> BSDF:
     bsdf = build_bsdf(plugin_class("bsdf", bsdf_spec.type, bsdf_spec), bsdf_spec.props)
     _attach_textures(bsdf, bsdf_spec)
     if not is_builtin(bsdf_spec.type):  # a user's BSDF: its results are checked on every call
-        from brdflab.validate.guard import SceneCheckedBSDF
+        from brdflab.judges.core.guard import SceneCheckedBSDF
 
         bsdf = SceneCheckedBSDF(bsdf, bsdf_spec.file, bsdf_spec.line)
     return bsdf

@@ -5,7 +5,7 @@ cheap auxiliary images of the scene at the check's resolution (:func:`render_aux
 
 * the **material** each pixel's camera ray hits (pixel centres; emitters seen directly and misses apart);
 * the **emitter-sampled part E and the BSDF-sampled part B** of the direct illumination: the two
-  MIS-weighted halves of ``direct_mis`` (:func:`brdflab.report.mis_weights.mis_parts`, same random numbers,
+  MIS-weighted halves of ``direct_mis`` (:func:`brdflab.pages.mis_weights.mis_parts`, same random numbers,
   so E + B is the estimate without camera-visible emission). E dominates on diffuse surfaces lit by small
   lights, B on glossy surfaces reflecting large ones;
 * the **direct light of each emitter** alone (emitter sampling with the selection probability set to 1 for
@@ -129,8 +129,8 @@ def material_map(scene) -> np.ndarray:
 def render_aux(scene_path: Path, spp: int = AUX_SPP, seed: int = 0, resolution: tuple[int, int] | None = None,
                workers: int | None = None, progress: Callable[[str], None] | None = None) -> AuxImages:
     """Render the auxiliary images of ``scene_path`` (see module docstring); ``resolution`` (width, height)."""
-    from brdflab.render import render
-    from brdflab.report.mis_weights import mis_parts
+    from brdflab.pages.mis_weights import mis_parts
+    from brdflab.renderer import render
     from brdflab.stats.jobs import RenderJob, load_for, run_seed
 
     say = progress or (lambda m: None)
@@ -374,7 +374,7 @@ def regions(signed_map: np.ndarray, block: int, shape: tuple[int, int]) -> list[
 
 def attribute(result, user: list[np.ndarray], aux: AuxImages, integrator: str = "", cell: int = CELL,
               estimate: np.ndarray | None = None) -> dict:
-    """Where and what of a check (``result``, a :class:`~brdflab.stats.check.CheckResult`) of the renders
+    """Where and what of a check (``result``, a :class:`~brdflab.stats.render_check.CheckResult`) of the renders
     ``user``: the whole image and each flagged region (see module docstring); plain dict for check.json.
     ``estimate`` is brdflab's (H, W, 3) estimate (default: ``result.estimate``, set by ``run_check``)."""
     x = _lum(np.mean(np.stack([np.asarray(u, np.float64) for u in user]), axis=0))
@@ -435,7 +435,7 @@ def attribute_check(result, user: list[np.ndarray], scene_path: Path, integrator
 
 def attribution_section(att: dict) -> str:
     """HTML body of the check page's "Where and what" section: one row per region (whole image first)."""
-    from brdflab.report import page as html
+    from brdflab.pages import page as html
 
     def row(label: str, r: dict) -> list[str]:
         rel = "" if r.get("relative_difference") is None else f"{100 * r['relative_difference']:+.1f} %"

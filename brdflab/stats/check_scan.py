@@ -1,4 +1,4 @@
-"""The statistics of ``brdflab check`` (the method is derived in :mod:`brdflab.stats.check`): brdflab's side from
+"""The statistics of ``brdflab check`` (the method is derived in :mod:`brdflab.stats.render_check`): brdflab's side from
 independent runs, the residual and single-render variance models, neighbour pooling, the window scan from additive
 block sums, the t-tests with their rounding floor, and the painting of flagged regions at their finest size. No
 I/O, no rendering: arrays in, arrays out.

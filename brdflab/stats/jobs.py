@@ -94,7 +94,7 @@ def load_for(job: RenderJob):
 
 def run_job(job: RenderJob) -> tuple[np.ndarray, float]:
     """Render ``job``; return the (H, W, 3) float32 image and the render seconds."""
-    from brdflab.render import render
+    from brdflab.renderer import render
 
     img, stats = render(load_for(job), spp=job.spp, seed=job.seed, workers=job.workers)
     return img, stats.seconds
@@ -103,7 +103,7 @@ def run_job(job: RenderJob) -> tuple[np.ndarray, float]:
 def run_progressive(job: RenderJob) -> list[tuple[int, float, np.ndarray]]:
     """Render ``job`` progressively; return (spp, elapsed seconds, image) at every checkpoint of
     ``job.checkpoints`` (each a pass boundary of the one run)."""
-    from brdflab.render import render
+    from brdflab.renderer import render
 
     out: list[tuple[int, float, np.ndarray]] = []
     wanted = set(job.checkpoints) | {job.spp}

@@ -129,10 +129,10 @@ def resolve(specs: list[str], alphas: list[float] | None = None, params: list[st
 
 def build(spec: BSDFSpec):
     """The BSDF object of ``spec`` (through the plugin registry; ``type/lobe`` selects one lobe)."""
+    from brdflab.judges.core.guard import SceneCheckedBSDF
+    from brdflab.judges.material.battery import make_named_bsdf
     from brdflab.limits import check_alpha
     from brdflab.plugins import is_builtin
-    from brdflab.validate.battery import make_named_bsdf
-    from brdflab.validate.guard import SceneCheckedBSDF
 
     alpha = spec.params.get("alpha", spec.alpha)
     if alpha is not None and np.ndim(alpha) == 0:

@@ -6,7 +6,7 @@ silhouette), one by a small procedural HDR sky
 (blue above, a warm sun, dark ground; lat-long in the course orientation of
 :mod:`brdflab.emitter.environment`). The scene is loaded with a placeholder material, which is then
 replaced by the BSDF object itself, so built-ins with any parameters and users' plugin BSDFs render the
-same way. Renders use the ordinary renderer (:func:`brdflab.render.render`).
+same way. Renders use the ordinary renderer (:func:`brdflab.renderer.render`).
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def render_spheres(bsdfs: list, size: int = 128, spp: int = 16, seed: int = 0,
 
     ``spp`` is the point light's sample count; the environment gets :data:`SPP_FACTOR` times as many.
     """
-    from brdflab.render import render
+    from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
 
     images: dict[str, list[np.ndarray]] = {light: [] for light in LIGHTS}

@@ -101,7 +101,7 @@ def check_plot_work(opts: PlotOptions, n_bsdfs: int) -> None:
 def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | None = None,
                 progress=None) -> Path:
     """Write the views of ``bsdfs`` (legend ``labels``) into ``out``; return the path of ``index.html``."""
-    from brdflab.report.jinja import render
+    from brdflab.pages.jinja import render
 
     opts = opts or PlotOptions()
     say = progress or (lambda msg: None)

@@ -84,15 +84,15 @@ def albedo_quadrature(bsdf, theta_i: float) -> float:
     """ρ(θ_i) = ∫ f cos θ_o dω_o (Y) by quadrature.
 
     The built-in microfacet materials use the furnace check's half-vector quadrature
-    (:func:`brdflab.validate.furnace.albedo_quadrature`), as the validation battery does. Any other BSDF
+    (:func:`brdflab.judges.material.furnace.albedo_quadrature`), as the validation battery does. Any other BSDF
     (diffuse, plugins, textured roughness) is integrated over the hemisphere in (cos θ_o, φ_o), where
     dω_o = d cos θ_o dφ_o, with the adaptive tensor Gauss–Legendre rule of the chi-square test
-    (:func:`brdflab.validate.chi2.adaptive_integrate`, cells split where 4- and 8-point rules disagree),
+    (:func:`brdflab.judges.material.chi2.adaptive_integrate`, cells split where 4- and 8-point rules disagree),
     so narrow lobes of unknown shape are still resolved.
     """
     from brdflab.bsdf.roughconductor import RoughConductor
     from brdflab.bsdf.roughsubstrate import RoughSubstrate
-    from brdflab.validate import chi2, furnace
+    from brdflab.judges.material import chi2, furnace
 
     if type(bsdf) in (RoughConductor, RoughSubstrate) and bsdf.alpha.constant:
         return furnace.albedo_quadrature(bsdf, theta_i, bsdf.alpha_value)
@@ -128,7 +128,7 @@ def albedo(bsdfs: list, thetas=ALBEDO_THETAS, n: int = 20_000, seed: int = 0) ->
 
     Each (BSDF, θ_i) pair draws from its own random stream (``seed``, BSDF index, angle index).
     """
-    from brdflab.validate import furnace
+    from brdflab.judges.material import furnace
 
     th = np.asarray(thetas, float)
     q = np.array([[albedo_quadrature(b, t) for t in th] for b in bsdfs])

@@ -1,6 +1,6 @@
 """Binning for the chi-square tests: equal-probability bins on the sphere placed by an independent pilot sample of the
 sampler (θ strips at quantiles, then φ quantiles inside each strip, mixed with uniform directions), histogramming
-and the bins' rectangles in (θ, φ) for the quadrature. Used by :mod:`brdflab.validate.chi2`.
+and the bins' rectangles in (θ, φ) for the quadrature. Used by :mod:`brdflab.judges.material.chi2`.
 """
 
 from __future__ import annotations

@@ -5,13 +5,13 @@ listing each is noise that hides the cause. :func:`grouped_failures` groups them
 
 * the chi-square failures of one BSDF are **diagnosed** (:func:`diagnose`): for one failing test per α,
   the BSDF's own samples (directions and the pdf ``sample()`` reports) are put through the method-agnostic
-  self-consistency test with the usual pdf bugs corrected (:func:`brdflab.validate.sample_hints.pdf_corrections`:
+  self-consistency test with the usual pdf bugs corrected (:func:`brdflab.judges.samples.bsdf_hints.pdf_corrections`:
   the 1/(4|ω_o·ω_h|) Jacobian missing or twice, a cos θ_o, a constant); a correction that makes them
   consistent names the cause. Failures with the same cause form one line; otherwise they are grouped by
   their symptom (the fault text with its numbers removed);
 * consistency and furnace failures are grouped per BSDF and symptom the same way, each furnace point with
   its α;
-* everything else is listed as before (:meth:`brdflab.validate.battery.Battery.failures`).
+* everything else is listed as before (:meth:`brdflab.judges.material.battery.Battery.failures`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
+from brdflab.judges.material import chi2 as c2
 
 _NUM = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?σ?")
 
@@ -61,9 +61,9 @@ def diagnose(result: c2.Chi2Result, n: int = 20_000, seed: int = 0, entry=None) 
     test compares), corrected for each usual bug. ``entry`` (a battery entry) rebuilds a BSDF that is not
     known by name.
     """
-    from brdflab.report.chi2_views import Sampler, sampler_of
-    from brdflab.validate import sample_hints as hints
-    from brdflab.validate import selfconsistency as sc
+    from brdflab.judges.samples import bsdf_hints as hints
+    from brdflab.judges.samples import selfconsistency as sc
+    from brdflab.pages.chi2_views import Sampler, sampler_of
 
     prm = dict(result.params or {})
     theta = prm.pop("theta", None)
@@ -112,16 +112,16 @@ def diagnose(result: c2.Chi2Result, n: int = 20_000, seed: int = 0, entry=None) 
 
 def grouped_failures(bat, diagnose_chi2: bool = True, bsdfs=None) -> list[str]:
     """One line per cause: chi-square, consistency and furnace failures grouped (module docstring), then the
-    remaining failures of :meth:`~brdflab.validate.battery.Battery.failures`.
+    remaining failures of :meth:`~brdflab.judges.material.battery.Battery.failures`.
 
-    ``bsdfs`` (as for :func:`~brdflab.validate.battery.resolve_bsdfs`) rebuilds BSDFs not known by name for
+    ``bsdfs`` (as for :func:`~brdflab.judges.material.battery.resolve_bsdfs`) rebuilds BSDFs not known by name for
     the diagnosis.
     """
     out: list[str] = []
     causes: dict[str, str] = {}
     entries = {}
     if bsdfs is not None:
-        from brdflab.validate.battery import resolve_bsdfs
+        from brdflab.judges.material.battery import resolve_bsdfs
 
         entries = {e.name: e for e in resolve_bsdfs(bsdfs)}
     fails = [r for r in bat.chi2 if not r.passed]

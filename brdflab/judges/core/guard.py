@@ -77,7 +77,7 @@ class CheckedBSDF:
     --------
     >>> import numpy as np
     >>> from brdflab.bsdf.diffuse import Diffuse
-    >>> from brdflab.validate.guard import CheckedBSDF, PluginFault
+    >>> from brdflab.judges.core.guard import CheckedBSDF, PluginFault
     >>> class Broken(Diffuse):
     ...     def pdf(self, wi, wo, uv=None):
     ...         return -super().pdf(wi, wo, uv)

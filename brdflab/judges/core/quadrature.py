@@ -1,7 +1,7 @@
 """Quadrature for the statistical checks: adaptive tensor Gauss–Legendre integration over rectangles (cells split
 where the 4- and 8-point rules disagree, budget from :mod:`brdflab.effort`), spherical cells about an axis graded
 towards narrow neighbouring bins, and the integrals of a density over the chi-square bins, ∫ p dω and the albedo.
-Used by :mod:`brdflab.validate.chi2` (expected counts), the consistency and furnace checks and the plots.
+Used by :mod:`brdflab.judges.material.chi2` (expected counts), the consistency and furnace checks and the plots.
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ def test_seed(kind: str, *parts) -> int:
 
     Examples
     --------
-    >>> from brdflab.validate.seeding import test_seed
+    >>> from brdflab.judges.core.seeding import test_seed
     >>> test_seed("chi2", "phong", {"exponent": 20}, 30.0) == test_seed("chi2", "phong", {"exponent": 20}, 30.0)
     True
     >>> test_seed("chi2", "phong", {"exponent": 20}, 30.0) == test_seed("chi2", "phong", {"exponent": 5}, 30.0)

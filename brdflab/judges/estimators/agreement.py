@@ -27,6 +27,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from brdflab.scene import BUNDLED_SCENES
+
 SIGNIFICANCE = 0.01
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 ESTIMATORS = ("direct_ems", "direct_mats", "direct_mis")
@@ -93,7 +95,7 @@ def _seed(*parts) -> int:
 
 def block_means(scene, spp: int, reps: int, block: int, seed: int) -> np.ndarray:
     """(reps, blocks) block means of the luminance of ``reps`` renders."""
-    from brdflab.render import render
+    from brdflab.renderer import render
 
     out = []
     for k in range(reps):
@@ -230,7 +232,7 @@ def canonical_scenes(root: Path | None = None) -> list[tuple[Path, str]]:
     """(scene, selection) pairs of the generated light-path scenes checked by ``brdflab validate``:
     triangle-mesh and polygon lights, fused area lights, and mixed area + point + environment lights
     under both selection rules. Empty when the scenes folder is not beside the package."""
-    root = root or Path(__file__).resolve().parents[2] / "scenes" / "lights"
+    root = root or BUNDLED_SCENES / "lights"
     out = []
     for stem, selections in (("sphere_light", ("uniform",)), ("polygon_lights", ("uniform", "power")),
                              ("mixed_lights", ("uniform", "power"))):

@@ -5,9 +5,9 @@
   (barycentric coordinates, independent of the sampler's tables) and binned into the n² congruent
   sub-triangles of every triangle. The claimed density is uniform by area (p_sel·A_k/A_e per triangle for the
   fused set), so each cell expects N·P(triangle)/n²; Pearson's X² with pooling of cells below 5 expected
-  counts (:func:`brdflab.validate.chi2.pearson`).
+  counts (:func:`brdflab.judges.material.chi2.pearson`).
 * **Environment maps**: directions against :meth:`EnvironmentEmitter.pdf` with the spherical binning and
-  adaptive quadrature of :func:`brdflab.validate.chi2.chi2_test`.
+  adaptive quadrature of :func:`brdflab.judges.material.chi2.chi2_test`.
 * **pdf consistency**: for every emitter of a scene, light samples drawn from the scene's shading points
   are located on the light's triangles (with the light's shading normal there, from the geometry); the
   density the integrators use for a BSDF-sampled ray that reaches the same point (``pdf_hit``,
@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
+from brdflab.judges.material import chi2 as c2
+from brdflab.scene import BUNDLED_SCENES
 
 SUB = 4
 """Sub-triangles per triangle edge at most (SUB² cells per triangle; fewer for large meshes, so that a cell
@@ -287,7 +288,7 @@ def pdf_checks(scene, label: str, n: int = 20_000, seed: int = 0,
 
 
 def _scenes(root: Path | None = None) -> list[Path]:
-    root = root or Path(__file__).resolve().parents[2] / "scenes"
+    root = root or BUNDLED_SCENES
     rels = ["cbox/cbox_diffuse.xml", "lights/sphere_light_mis.xml", "lights/polygon_lights_mis.xml",
             "lights/mixed_lights_mis.xml", "envlit/envlit_mis.xml", "veach/veach_mis.xml"]
     return [root / r for r in rels if (root / r).exists()]
@@ -346,7 +347,7 @@ def negative_controls(n: int = 100_000, progress: Callable[[str], None] | None =
     from brdflab.scene.loader import load_scene
 
     out = []
-    root = Path(__file__).resolve().parents[2] / "scenes"
+    root = BUNDLED_SCENES
     sphere = root / "lights/sphere_light_mis.xml"
     if sphere.exists():
         s = load_scene(sphere)

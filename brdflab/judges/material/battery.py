@@ -1,7 +1,7 @@
 """The validation battery: every warp and BSDF through chi-square, consistency, furnace and stability.
 
 :func:`run_battery` returns a :class:`Battery` that the CLI prints and
-:mod:`brdflab.report.validation` turns into an HTML report. It runs on the built-in BSDFs or on any
+:mod:`brdflab.pages.validation` turns into an HTML report. It runs on the built-in BSDFs or on any
 BSDFs given to it (a user's plugin): names (built-in, or resolved by the plugin registry
 ``brdflab.plugins.make_bsdf``), BSDF instances, classes, ``(name, factory(alpha, params))`` pairs,
 :class:`BSDFEntry` objects, or names with a ``make(name, alpha, params)`` callable. A BSDF without an
@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
-from brdflab.validate import consistency, furnace, stability
-from brdflab.validate.battery_entries import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.core.seeding import test_seed
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.material import consistency, furnace, stability
+from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the module's former contents)
     BSDFS,
     POINT_WARPS,
     WARPS,
@@ -36,7 +37,6 @@ from brdflab.validate.battery_entries import (  # noqa: F401 (re-exported: the m
     make_named_bsdf,
     resolve_bsdfs,
 )
-from brdflab.validate.seeding import test_seed
 
 ALPHAS = (1e-3, 0.005, 0.05, 0.1, 0.3, 0.5, 1.0)
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
@@ -59,14 +59,14 @@ class Battery:
     albedo: list[furnace.AlbedoPoint] = field(default_factory=list)
     stability: list[stability.StabilityRow] = field(default_factory=list)
     threshold: float = c2.SIGNIFICANCE
-    # -- light transport (brdflab.validate.emitters / agreement) --
+    # -- light transport (brdflab.judges.lights.samplers / agreement) --
     emitter_chi2: list[c2.Chi2Result] = field(default_factory=list)
     emitter_pdf: list = field(default_factory=list)
-    """:class:`brdflab.validate.emitters.PdfCheck` per emitter sampler."""
+    """:class:`brdflab.judges.lights.samplers.PdfCheck` per emitter sampler."""
     emitter_negative: list[tuple[str, bool, str]] = field(default_factory=list)
     """(what, rejected, detail) of the emitter negative controls."""
     agreement: list = field(default_factory=list)
-    """:class:`brdflab.validate.agreement.AgreementResult` per canonical scene and selection rule."""
+    """:class:`brdflab.judges.estimators.agreement.AgreementResult` per canonical scene and selection rule."""
     agreement_negative: list = field(default_factory=list)
 
     @property
@@ -303,7 +303,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
 
     Examples
     --------
-    >>> import brdflab.validate as v
+    >>> import brdflab.judges as v
     >>> from brdflab.bsdf.diffuse import Diffuse
     >>> bat = v.run_battery(n=5_000, bsdfs=[Diffuse(0.5)], warp_names=[], thetas=(0.0, 60.0), full=False)
     >>> len(bat.chi2), bat.passed
@@ -365,7 +365,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
                  f"points, max ρ {max(p.quadrature for p in finite):.4f}, min ρ {worst.quadrature:.4f} "
                  f"({worst.name}, α={worst.alpha}, θ={worst.theta:g})")
         bad = [p for p in bat.albedo if not p.passed]
-        if bad:  # the points themselves are listed once, grouped, by brdflab.validate.failures
+        if bad:  # the points themselves are listed once, grouped, by brdflab.judges.core.failures
             progress(f"      {len(bad)} failing albedo points (first: {bad[0].message})")
     bat.stability = stability.run() if bsdfs is None else stability.run(bsdfs=_stability_materials(entries, params))
     if progress:
@@ -380,9 +380,10 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
 
 
 def run_light_transport(bat: Battery, n: int = 100_000, progress: Callable[[str], None] | None = None) -> Battery:
-    """Add the emitter checks (:mod:`brdflab.validate.emitters`) and the estimator agreement
-    (:mod:`brdflab.validate.agreement`) with their negative controls to ``bat``."""
-    from brdflab.validate import agreement, emitters
+    """Add the emitter checks (:mod:`brdflab.judges.lights.samplers`) and the estimator agreement
+    (:mod:`brdflab.judges.estimators.agreement`) with their negative controls to ``bat``."""
+    from brdflab.judges.estimators import agreement
+    from brdflab.judges.lights import samplers as emitters
 
     bat.emitter_chi2, bat.emitter_pdf = emitters.run(n, progress)
     bat.emitter_negative = emitters.negative_controls(n, progress)

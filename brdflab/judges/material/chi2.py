@@ -35,14 +35,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from brdflab.errors import BrdflabError
-from brdflab.validate.binning import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.core.binning import (  # noqa: F401 (re-exported: the module's former contents)
     bin_counts,
     bin_rects,
     bin_shape,
     pilot_bins,
     theta_edges_from_pilot,
 )
-from brdflab.validate.quadrature import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.core.quadrature import (  # noqa: F401 (re-exported: the module's former contents)
     BASE_CELL,
     _expand,
     _frame,
@@ -123,7 +123,7 @@ class Chi2Result:
         """One line: verdict, p-value, X²/dof, ∫ p dω vs the valid fraction, and the fault if any."""
         head = f"{'PASS' if self.passed else 'FAIL'} chi2 {self.name}"
         if self.params:
-            from brdflab.validate.guard import format_params
+            from brdflab.judges.core.guard import format_params
 
             head += f" ({format_params(self.params)})"
         body = (f": p = {self.p_value:.4g} (threshold {self.threshold:.2g}), X² = {self.statistic:.1f}, "
@@ -251,7 +251,7 @@ def chi2_test(
 ) -> Chi2Result:
     """Low-level chi-square test of a sampler (kept for callers of the old signature; ``axis`` is unused).
 
-    The BSDF-level function with keyword parameters is :func:`brdflab.validate.chi2_test`.
+    The BSDF-level function with keyword parameters is :func:`brdflab.judges.chi2_test`.
     """
     return sampler_test(name, sample, pdf, n, seed, params, threshold, uniforms, shape=(n_theta, n_phi))
 
@@ -267,11 +267,11 @@ def bsdf_test(name: str, bsdf, theta_deg: float, n: int, seed: int = 0, params: 
               threshold: float = SIGNIFICANCE, axis: np.ndarray | None = None) -> Chi2Result:
     """Chi-square test of ``bsdf.sample`` against ``bsdf.pdf`` for incident angle ``theta_deg``.
 
-    The BSDF is called through :class:`~brdflab.validate.guard.CheckedBSDF`: a contract violation gives a
+    The BSDF is called through :class:`~brdflab.judges.core.guard.CheckedBSDF`: a contract violation gives a
     failed result naming the method, the parameters and the first offending directions. ``axis`` is unused
     (the bins adapt to the lobe, see the module docstring).
     """
-    from brdflab.validate.guard import CheckedBSDF, PluginFault
+    from brdflab.judges.core.guard import CheckedBSDF, PluginFault
 
     params = dict(params or {})
     checked_bsdf = CheckedBSDF(bsdf, name, {k: v for k, v in params.items() if k != "theta"})

@@ -2,12 +2,12 @@
 
 For one incident direction ω_i (θ_i in the x–z plane) and N samples of the BSDF's own sampler:
 
-* **Contract** (through :class:`~brdflab.validate.guard.CheckedBSDF`): shapes, finite values, eval ≥ 0,
+* **Contract** (through :class:`~brdflab.judges.core.guard.CheckedBSDF`): shapes, finite values, eval ≥ 0,
   pdf ≥ 0, unit ω_o. A violation fails the check with the method, the parameters and the first (ω_i, ω_o).
 * **Weight**: |w − f cos θ_o / p| ≤ 10⁻⁵ · max(|f cos θ_o / p|, 10⁻³⁰) (float64), with p the sample's pdf
   (w must be 0 where p = 0 or cos θ_o ≤ 0).
 * **Pdf**: the sample's pdf equals ``pdf(ω_i, ω_o)`` (relative 10⁻⁶).
-* **Pdf mass**: ∫ p dω over the sphere by the adaptive quadrature of :mod:`brdflab.validate.chi2` (bins
+* **Pdf mass**: ∫ p dω over the sphere by the adaptive quadrature of :mod:`brdflab.judges.material.chi2` (bins
   placed by a pilot sample, so any lobe shape); it must be ≤ 1 + 10⁻³ and equal the fraction of
   non-failed samples within 5 binomial standard errors (or 2·10⁻³) plus the quadrature error.
 * **Reciprocity**: f(ω_i, ω_o) = f(ω_o, ω_i) (relative 10⁻⁶) on random pairs of the upper hemisphere and
@@ -21,10 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.judges.core.guard import CheckedBSDF, PluginFault, bsdf_params, describe, format_params
+from brdflab.judges.core.seeding import bsdf_identity, test_seed
+from brdflab.judges.material.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
 from brdflab.math import warps
-from brdflab.validate.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
-from brdflab.validate.guard import CheckedBSDF, PluginFault, bsdf_params, describe, format_params
-from brdflab.validate.seeding import bsdf_identity, test_seed
 
 WEIGHT_RTOL = 1e-5
 PDF_RTOL = 1e-6
@@ -150,7 +150,7 @@ def consistency_test(bsdf, theta: float = 45.0, samples: int = 100_000, seed: in
 
     Examples
     --------
-    >>> import brdflab.validate as v
+    >>> import brdflab.judges as v
     >>> from brdflab.bsdf.roughconductor import RoughConductor
     >>> r = v.consistency_test(RoughConductor(0.9, 0.2), theta=30.0, samples=20_000)
     >>> r.passed, r.max_weight_error < 1e-12

@@ -1,7 +1,7 @@
 """What the validation battery runs on: the built-in BSDFs and lobe variants, the warps, the negative control (the
 conductor pdf without its Jacobian), and :class:`BSDFEntry` — how to build any BSDF (a name, an instance, a class,
 a plugin, a factory) with its sweep — resolved by :func:`resolve_bsdfs`. The battery itself is
-:mod:`brdflab.validate.battery`.
+:mod:`brdflab.judges.material.battery`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from brdflab.bsdf.diffuse import Diffuse
 from brdflab.bsdf.microfacet import beckmann_d, half_vector
 from brdflab.bsdf.roughconductor import RoughConductor, alpha_values
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
+from brdflab.judges.core.guard import describe
 from brdflab.math import warps
-from brdflab.validate.guard import describe
 
 
 class NoJacobianConductor(RoughConductor):

@@ -7,9 +7,9 @@ microfacets is dropped), which the report quantifies as 1 − ρ.
 Two independent estimates must agree:
 
 * **Quadrature** (no assumption about the lobe): the upper hemisphere is cut into equal-probability bins
-  placed by a pilot sample of the BSDF's own sampler (:func:`brdflab.validate.chi2.pilot_bins`, mixed with
+  placed by a pilot sample of the BSDF's own sampler (:func:`brdflab.judges.material.chi2.pilot_bins`, mixed with
   uniform directions), and luminance(f)·cos θ_o is integrated over every bin by the adaptive Gauss–Legendre
-  quadrature of :func:`brdflab.validate.chi2.integrate_sphere_bins` (cells graded towards the lobe, split
+  quadrature of :func:`brdflab.judges.material.chi2.integrate_sphere_bins` (cells graded towards the lobe, split
   until the 4- and 8-point rules agree), which also gives an error estimate. The sampler only decides
   where the cells are fine; the value comes from ``eval`` alone.
 * **Monte Carlo**: the mean of the BSDF's own sample weights f cos θ_o / p, with its standard error.
@@ -27,10 +27,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from brdflab.validate.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
-from brdflab.validate.guard import CheckedBSDF, PluginFault, describe, format_params
-from brdflab.validate.results import CaseList
-from brdflab.validate.seeding import bsdf_identity, test_seed
+from brdflab.judges.core.guard import CheckedBSDF, PluginFault, describe, format_params
+from brdflab.judges.core.results import CaseList
+from brdflab.judges.core.seeding import bsdf_identity, test_seed
+from brdflab.judges.material.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
 
 #: Luminance weights (Rec. 709).
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
@@ -154,13 +154,13 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
     ----------
     bsdf
         Any :class:`brdflab.BSDF` (a user's plugin included); called through
-        :class:`~brdflab.validate.guard.CheckedBSDF`.
+        :class:`~brdflab.judges.core.guard.CheckedBSDF`.
     theta
         Incident angle θ_i in degrees (ω_i in the x–z plane).
     samples
         Monte Carlo samples.
     seed
-        Default: derived from the BSDF's type, parameters and θ (:func:`~brdflab.validate.seeding.test_seed`).
+        Default: derived from the BSDF's type, parameters and θ (:func:`~brdflab.judges.core.seeding.test_seed`).
     name, params, alpha
         For messages and reports.
 
@@ -172,12 +172,12 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
     Examples
     --------
     >>> from brdflab.bsdf.roughconductor import RoughConductor
-    >>> from brdflab.validate.furnace import furnace_point
+    >>> from brdflab.judges.material.furnace import furnace_point
     >>> r = furnace_point(RoughConductor(R0=1.0, alpha=0.3), theta=30.0, samples=20_000)
     >>> r.passed, round(r.quadrature, 2)
     (True, 0.99)
     """
-    from brdflab.validate.guard import bsdf_params
+    from brdflab.judges.core.guard import bsdf_params
 
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
@@ -269,8 +269,8 @@ def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, se
     >>> res.passed, [round(p.quadrature, 2) for p in res]
     (True, [1.0, 0.92])
     """
+    from brdflab.judges.core.guard import bsdf_params
     from brdflab.limits import check_test_arguments
-    from brdflab.validate.guard import bsdf_params
 
     thetas = (theta,) if theta is not None else tuple(thetas)
     check_test_arguments(None, samples)

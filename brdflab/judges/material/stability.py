@@ -14,8 +14,8 @@ import numpy as np
 
 from brdflab.bsdf.roughconductor import RoughConductor
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
+from brdflab.judges.core.results import CaseList
 from brdflab.math import warps
-from brdflab.validate.results import CaseList
 
 NOTES = [
     "tan²θ is computed as (1 − cos²θ)/cos²θ from the clamped cosine (never tan of an angle), so D stays "
@@ -101,7 +101,7 @@ def _count(x: np.ndarray) -> tuple[int, int, int]:
 
 def _row(mname: str, cname: str, bsdf, wi: np.ndarray, wo: np.ndarray, u: np.ndarray) -> StabilityRow:
     """Evaluate one case; exceptions and wrong shapes become a failed row naming the method."""
-    from brdflab.validate.guard import CheckedBSDF, PluginFault
+    from brdflab.judges.core.guard import CheckedBSDF, PluginFault
 
     n = len(wi)
     shapes = {"eval": (n, 3), "pdf": (n,), "sample.wo": (n, 3), "sample.weight": (n, 3), "sample.pdf": (n,)}
@@ -182,8 +182,8 @@ def stability_test(bsdf=None, name: str | None = None, seed: int | None = None) 
     >>> len(res), res.passed
     (9, True)
     """
-    from brdflab.validate.guard import describe
-    from brdflab.validate.seeding import bsdf_identity, test_seed
+    from brdflab.judges.core.guard import describe
+    from brdflab.judges.core.seeding import bsdf_identity, test_seed
 
     if bsdf is None:
         return StabilityResult("built-in materials", seed or 0, run(seed or 0))

@@ -25,15 +25,15 @@ What is checked
 Samples are grouped by ω_i (components equal within 10⁻⁴; several ω_i per file). For each group, with a pdf
 column, the verdict does **not** assume brdflab's sampling method (docs/external-samples.md):
 
-* **Self-consistency** (:mod:`brdflab.validate.selfconsistency`): the directions against the file's own
+* **Self-consistency** (:mod:`brdflab.judges.samples.selfconsistency`): the directions against the file's own
   pdf column (Σ r/p_k per bin against N ∫ r, r = brdflab's pdf of the reference shaping the bins); any
   correct method passes. Šidák-corrected over the groups.
 * **Weight columns**: against the reference's f·cos θ_o / p with p the (self-consistent) pdf column, or the
   true density when a hint identifies it; hints name weight and pdf bugs jointly
-  (:mod:`brdflab.validate.sample_hints`), and parameters left at their default that the weights fit at
+  (:mod:`brdflab.judges.samples.bsdf_hints`), and parameters left at their default that the weights fit at
   another value.
 * **Same method as brdflab** (informative for a BSDF; the verdict for a warp, a file without pdf column, or
-  a blind self-consistency test): the chi-square test of :mod:`brdflab.validate.chi2` of ω_o against
+  a blind self-consistency test): the chi-square test of :mod:`brdflab.judges.material.chi2` of ω_o against
   brdflab's pdf (bins from a pilot of brdflab's *own* sampler; directions below the horizon count as failed
   on both sides) and the pdf column per sample (|p_file − p| / max(p_file, p) > 10⁻² for at most 0.1 %).
 
@@ -47,10 +47,11 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BrdflabError
-from brdflab.validate import chi2 as c2
-from brdflab.validate import sample_hints as hints
-from brdflab.validate import selfconsistency as _sc
-from brdflab.validate.external_results import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.core.seeding import test_seed
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.samples import bsdf_hints as hints
+from brdflab.judges.samples import selfconsistency as _sc
+from brdflab.judges.samples.bsdf_results import (  # noqa: F401 (re-exported: the module's former contents)
     COLUMN_FRACTION,
     COLUMN_RTOL,
     ColumnCheck,
@@ -58,7 +59,7 @@ from brdflab.validate.external_results import (  # noqa: F401 (re-exported: the 
     GroupResult,
     _vec,
 )
-from brdflab.validate.sample_files import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.samples.tables import (  # noqa: F401 (re-exported: the module's former contents)
     ALLOWED,
     EXPECTED,
     WI_TOLERANCE,
@@ -72,7 +73,6 @@ from brdflab.validate.sample_files import (  # noqa: F401 (re-exported: the modu
     read_samples,
     read_table,
 )
-from brdflab.validate.seeding import test_seed
 
 #: Fewest samples per ω_i group for a meaningful chi-square test.
 MIN_GROUP = 50
@@ -84,11 +84,11 @@ DIRECTION_WARPS = ("uniform_sphere", "uniform_hemisphere", "cosine_hemisphere", 
 
 def _reference(against, alpha: float | None, params: dict | None, make=None):
     """(name, kind, object): kind 'warp' → (sample(u), pdf(w)); kind 'bsdf' → a BSDF."""
-    from brdflab.validate.battery import WARPS, resolve_bsdfs
+    from brdflab.judges.material.battery import WARPS, resolve_bsdfs
 
     params = dict(params or {})
     if not isinstance(against, str):
-        from brdflab.validate.guard import describe
+        from brdflab.judges.core.guard import describe
 
         return describe(against), "bsdf", against
     if against in WARPS:
@@ -115,7 +115,7 @@ def _reference(against, alpha: float | None, params: dict | None, make=None):
 
 
 def _builtin_names():
-    from brdflab.validate.battery import BSDFS
+    from brdflab.judges.material.battery import BSDFS
 
     return BSDFS
 
@@ -217,8 +217,8 @@ def _parameters(against, kind: str, alpha: float | None, params: dict, make) -> 
     """The parameter line (values used, defaults marked) and (make, defaults, given) for fitting defaults."""
     if kind != "bsdf" or not isinstance(against, str):
         return ([f"parameters: alpha={alpha:g}"] if alpha is not None else []), None
-    from brdflab.validate.battery import resolve_bsdfs
-    from brdflab.validate.guard import format_params
+    from brdflab.judges.core.guard import format_params
+    from brdflab.judges.material.battery import resolve_bsdfs
 
     try:
         from brdflab.plugins import bsdf_parameters
@@ -250,7 +250,7 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
 
     ``fit`` is (make(params) → BSDF, defaults, given params) for the parameter-default warnings, or None.
     """
-    from brdflab.validate.guard import CheckedBSDF, PluginFault
+    from brdflab.judges.core.guard import CheckedBSDF, PluginFault
 
     wo = s.wo[idx]
     lines = s.lines[idx]

@@ -4,7 +4,7 @@ Every hint is a *hypothesis tested on the data*, never a guess from one symptom:
 
 * **Pdf column, method-agnostic** (:func:`pdf_corrections`): for each usual bug c(ω) (the 1/(4|ω_o·ω_h|)
   Jacobian missing or applied twice, an extra or a missing cos θ_o, a constant factor), the corrected
-  column p_file · c is put through the self-consistency test (:mod:`brdflab.validate.selfconsistency`):
+  column p_file · c is put through the self-consistency test (:mod:`brdflab.judges.samples.selfconsistency`):
   the hint is given only when the corrected column is consistent with the sampled directions. It does not
   assume brdflab's sampling method.
 * **Pdf column, identified against the named BSDF** (:func:`pdf_identity`): the column is compared
@@ -29,7 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from brdflab.validate import selfconsistency as sc
+from brdflab.judges.samples import selfconsistency as sc
 
 #: Median relative deviation below which a candidate explains a column.
 MATCH = 1e-2

@@ -1,6 +1,7 @@
 """What ``brdflab chi2 --samples FILE --against NAME`` found, per ω_i group and for the file: the column checks
 (weights against NAME's f·cos/pdf, pdf against NAME's), the self-consistency and chi-square verdicts with their
-hints, the messages the command prints and the JSON. The checks themselves are :mod:`brdflab.validate.external`.
+hints, the messages the command prints and the JSON. The checks themselves are
+:mod:`brdflab.judges.samples.bsdf_checks`.
 """
 
 from __future__ import annotations
@@ -9,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
-from brdflab.validate import selfconsistency as _sc
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.samples import selfconsistency as _sc
 
 #: Per-sample relative tolerance of the pdf and weight columns, and the fraction allowed beyond it.
 COLUMN_RTOL = 1e-2
@@ -55,7 +56,7 @@ class GroupResult:
     """Result for the samples of one ω_i.
 
     ``sc`` is the method-agnostic self-consistency test of the directions against the file's own pdf
-    column (:mod:`brdflab.validate.selfconsistency`); ``chi2`` and ``pdf`` compare with brdflab's own
+    column (:mod:`brdflab.judges.samples.selfconsistency`); ``chi2`` and ``pdf`` compare with brdflab's own
     sampler and pdf (they tell whether the file uses brdflab's sampling *method*; they decide the verdict
     only without a pdf column, or when the self-consistency test is blind).
     """

@@ -1,5 +1,5 @@
 """The checks of users' light samples (the file format and the verdict rules are in
-:mod:`brdflab.validate.emitter_samples`): the light under test, points on it, the method-agnostic self-consistency
+:mod:`brdflab.judges.samples.light_samples`): the light under test, points on it, the method-agnostic self-consistency
 of the points against their own pdf, and the comparisons with brdflab's own method (pdf, distribution, radiance)
 with the hints that name the usual bugs.
 """
@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from brdflab.errors import BrdflabError
-from brdflab.validate import chi2 as c2
-from brdflab.validate.emitters import SUB, emitter_triangles, shading_normals, subtriangle_cell
-from brdflab.validate.external import COLUMN_FRACTION, COLUMN_RTOL, _ratio_hint
+from brdflab.judges.lights.samplers import SUB, emitter_triangles, shading_normals, subtriangle_cell
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.samples.bsdf_checks import COLUMN_FRACTION, COLUMN_RTOL, _ratio_hint
 
 #: A point is on the light when its distance to the nearest triangle is at most this × the light's size.
 ON_RTOL = 1e-4

@@ -1,9 +1,9 @@
 """Users' own light samples against brdflab's emitters (``brdflab chi2 --samples FILE --against-emitter
-scene.xml[:index]``): the emitter-sampling counterpart of :mod:`brdflab.validate.external`.
+scene.xml[:index]``): the emitter-sampling counterpart of :mod:`brdflab.judges.samples.bsdf_checks`.
 
 File format
 -----------
-The conventions of :func:`brdflab.validate.external.read_table` (text with ``#`` comments, ``.npy``, or
+The conventions of :func:`brdflab.judges.samples.bsdf_checks.read_table` (text with ``#`` comments, ``.npy``, or
 ``.npz`` with the key ``samples``); one row per call of the light sampler, in world space:
 
 ==========================================================  ==================================================
@@ -28,7 +28,7 @@ What is checked
    light's size; a point light's position), and the normal column agrees with brdflab's shading normal there.
 2. **Self-consistency** (the verdict for area lights, whatever method drew the points): the points against
    *their own* pdf column — Σ 1_c(y)/p_A(y)/N must estimate each cell's area
-   (:func:`~brdflab.validate.emitter_sample_checks._self_consistency_check`).
+   (:func:`~brdflab.judges.samples.light_checks._self_consistency_check`).
    When it holds, the two comparisons with brdflab's own method below (pdf and distribution) are reported as
    information ("a different sampling method than brdflab's (self-consistent)"), not as failures: a correct
    sampler of another method passes. When it fails, their hints name the likely bug.
@@ -39,9 +39,9 @@ What is checked
    r²/cos), the reverse, a missing cos θ_y or r², a missing or doubled selection probability, a triangle's pdf
    1/A_k (or 1/(K·A_k), triangles chosen uniformly) instead of the emitter's.
 4. **Distribution** (against brdflab's method): Pearson's chi-square of the points on the light over n²
-   congruent sub-triangles of every triangle (:func:`brdflab.validate.emitters.subtriangle_cell`), expected
+   congruent sub-triangles of every triangle (:func:`brdflab.judges.lights.samplers.subtriangle_cell`), expected
    counts N · p_sel · A_k / (A_e n²)
-   (:data:`brdflab.validate.chi2.SIGNIFICANCE`, cells below 5 expected pooled); a failure is explained by
+   (:data:`brdflab.judges.material.chi2.SIGNIFICANCE`, cells below 5 expected pooled); a failure is explained by
    sub-tests: emitter frequencies against the scene's selection, triangle counts against a *uniform* choice
    of triangles (fits where the area-weighted one does not), points within their triangles.
 5. **Radiance** (14 columns, constant-radiance lights): L_e where y faces x, else 0 (one-sided emitters);
@@ -56,8 +56,10 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BrdflabError
-from brdflab.validate import chi2 as c2
-from brdflab.validate.emitter_sample_checks import (  # noqa: F401 (re-exported: the module's former contents)
+from brdflab.judges.lights.samplers import shading_normals
+from brdflab.judges.material import chi2 as c2
+from brdflab.judges.samples.bsdf_checks import read_table
+from brdflab.judges.samples.light_checks import (  # noqa: F401 (re-exported: the module's former contents)
     MIN_SAMPLES,
     NORMAL_DOT,
     ON_RTOL,
@@ -73,8 +75,6 @@ from brdflab.validate.emitter_sample_checks import (  # noqa: F401 (re-exported:
     _self_consistency_check,
     nearest_triangle,
 )
-from brdflab.validate.emitters import shading_normals
-from brdflab.validate.external import read_table
 
 ALLOWED = (11, 14)
 EXPECTED = "11 or 14 columns (x y n pdf measure [L_r L_g L_b]: reference point, light point, its normal, pdf, " \
@@ -235,7 +235,7 @@ def own_samples(scene, index: int | None, n: int, seed: int = 0) -> np.ndarray:
     """(N, 14) brdflab's own light samples in the file format (solid-angle pdf, measure 1), from shading
     points of the scene: what a correct sampler writes (tests, examples)."""
     from brdflab.integrator.common import choose_emitters
-    from brdflab.validate.emitters import reference_points
+    from brdflab.judges.lights.samplers import reference_points
 
     p, _ = reference_points(scene, seed=seed)
     rng = np.random.default_rng(seed + 1)
@@ -270,7 +270,7 @@ def write_emitter_report(res: EmitterSamplesResult, out: Path) -> Path:
     import json
 
     from brdflab.imageio import _atomic_write
-    from brdflab.report import page as html
+    from brdflab.pages import page as html
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -281,7 +281,7 @@ def write_emitter_report(res: EmitterSamplesResult, out: Path) -> Path:
                                               + ("all checks passed" if res.passed else "FAILED"))
                         + html.table(["check", "result", "measured", "hint"], rows))
     body += html.section("Method", html.esc_p("See docs/external-samples.md (light samples) and "
-                                              "brdflab/validate/emitter_samples.py."))
+                                              "brdflab/judges/samples/light_samples.py."))
     page = html.page(f"brdflab light samples — {Path(res.path).name}", body)
     path = out / "emitter_samples.html"
     _atomic_write(path, lambda tmp: Path(tmp).write_text(page))

@@ -14,7 +14,7 @@ If ω has density q and the sampler reports p = q, then for every bin B (N sampl
     T_B = (1/N) Σ_k 1_B(ω_k) r(ω_k) / p_k      has mean      μ_B = ∫_B r dω                        (1)
 
 over the part of B where p > 0 (Veach 1997, eq. 2.8 with integrand 1_B·r). μ_B comes from adaptive
-quadrature of r (:func:`brdflab.validate.chi2.integrate_sphere_bins`), never from the data. A wrong pdf
+quadrature of r (:func:`brdflab.judges.material.chi2.integrate_sphere_bins`), never from the data. A wrong pdf
 column (p ≠ q) biases T_B by the factor q/p averaged over B with weight r; a sampler that fails more often
 than its pdf admits lowers every T_B; a sampler that never reaches part of r's support leaves μ_B > 0
 there with T_B = 0. With p = r (brdflab's own method) T_B is the bin's count / N, and the test below is
@@ -36,7 +36,7 @@ hemisphere for such a sampler (cosine-weighted directions for a sharp conductor:
 Bins and statistic
 ------------------
 Bins are placed by a pilot sample of brdflab's own sampler (equal r-probability, plus 10 % uniform
-directions), as in :mod:`brdflab.validate.chi2`; bins with N·μ_B < 5 are pooled into one cell. Per cell
+directions), as in :mod:`brdflab.judges.material.chi2`; bins with N·μ_B < 5 are pooled into one cell. Per cell
 c, with M_c = (1/N) Σ_{k∈c} w_k² and the variance of one term under H0 estimated by
 V_c = μ_c · (M_c / T_c) − μ_c² (the r-weighted mean of w in the cell times μ_c; for w ≡ 1 it is
 μ_c(1 − μ_c), Pearson's), the statistic X² = Σ_c N (T_c − μ_c)² / V_c is referred to χ² with one degree
@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from brdflab.validate import chi2 as c2
+from brdflab.judges.material import chi2 as c2
 
 #: Cells with fewer expected r-weighted samples than this are pooled.
 MIN_EXPECTED = 5.0
@@ -156,7 +156,7 @@ def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], n
     pilot
         (m, 3) directions from r's own sampler (independent of ``wo``): they place the bins only.
     shape
-        (n_theta, n_phi); default about N/100 bins (:func:`brdflab.validate.chi2.bin_shape` of N/4).
+        (n_theta, n_phi); default about N/100 bins (:func:`brdflab.judges.material.chi2.bin_shape` of N/4).
     """
     from brdflab.math.warps import square_to_uniform_sphere
 
@@ -187,7 +187,8 @@ def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], n
 
 
 def _bin_index(theta: np.ndarray, phi: np.ndarray, te: np.ndarray, pe: np.ndarray) -> np.ndarray:
-    """Flat bin index (strip · n_phi + φ bin) of every direction (as :func:`brdflab.validate.chi2.bin_counts`)."""
+    """Flat bin index (strip · n_phi + φ bin) of every direction (as
+    :func:`brdflab.judges.material.chi2.bin_counts`)."""
     nt, nph = pe.shape[0], pe.shape[1] - 1
     i = np.clip(np.searchsorted(te, theta, side="right") - 1, 0, nt - 1)
     keys = (np.arange(nt)[:, None] * 10.0 + pe[:, :-1]).ravel()

@@ -2,7 +2,7 @@
 comments), ``.npy`` or ``.npz``, through the one input check of :mod:`brdflab.limits` (no FIFO, device or folder,
 the size limit, array headers checked before NumPy allocates, never unpickled), located errors (file, line), and
 the grouping of samples by ω_i (k-d tree pairs, O(n log n)). The checks of BSDF samples are
-:mod:`brdflab.validate.external`.
+:mod:`brdflab.judges.samples.bsdf_checks`.
 """
 
 from __future__ import annotations

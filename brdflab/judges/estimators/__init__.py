@@ -1,0 +1,1 @@
+"""Judging estimators: integrators of one scene must agree within statistical error (``agreement``)."""
