@@ -29,6 +29,8 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from brdflab.errors import BrdflabError, clean
+
 ROOT = Path(__file__).resolve().parent.parent
 
 #: Fixed bench cases: name → (scene path relative to the repository, integrators).
@@ -200,8 +202,15 @@ def whole_process_seconds(scene_path: Path, integrator: str, spp: int, workers: 
         out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
         seconds = time.perf_counter() - t0
     if out.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed:\n{out.stderr[-2000:]}")
+        raise BrdflabError(f"brdflab render {clean(scene_path, 80)} failed: {last_line(out.stderr)}")
     return seconds
+
+
+def last_line(stderr: str) -> str:
+    """The last non-empty line of a child's standard error: its one-line error (``brdflab: error: …``, the prefix
+    dropped), or a traceback's last line."""
+    lines = [ln.strip() for ln in (stderr or "").splitlines() if ln.strip()]
+    return clean(lines[-1].removeprefix("brdflab: error: "), 300) if lines else "no message"
 
 
 def is_scene_case(case: str) -> bool:
@@ -236,12 +245,16 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
             cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integ, str(spp), str(runs),
                    str(workers or 0), case, *plugins]
             out_p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-            if out_p.returncode != 0:
-                say(f"{case}/{integ}: failed\n{out_p.stderr[-2000:]}")
+            if out_p.returncode != 0:  # one line: the child's error, never its traceback
+                say(f"{case}{'/' + integ if integ else ''}: failed: {last_line(out_p.stderr)}")
                 continue
             rec = json.loads(out_p.stdout.strip().splitlines()[-1])
-            rec["whole_seconds"] = [whole_process_seconds(scene, integ, spp, workers, seed=k, plugins=plugins)
-                                    for k in range(runs)]
+            try:
+                rec["whole_seconds"] = [whole_process_seconds(scene, integ, spp, workers, seed=k, plugins=plugins)
+                                        for k in range(runs)]
+            except BrdflabError as exc:
+                say(f"{case}{'/' + integ if integ else ''}: failed: {exc}")
+                continue
             r = BenchResult(**{k: v for k, v in rec.items() if k in BenchResult.__dataclass_fields__})
             rec["median"] = {k: r.median(k) for k in ("samples_per_s", "rays_per_s", "embree_share", "seconds")}
             rec["median"]["whole_seconds"] = statistics.median(r.whole_seconds)
@@ -274,4 +287,8 @@ def _main_one(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--one":
-        _main_one(sys.argv[2:])
+        try:
+            _main_one(sys.argv[2:])
+        except BrdflabError as exc:  # the user's scene or plugin: one line for the parent to show
+            print(f"brdflab: error: {exc}", file=sys.stderr)
+            sys.exit(2)

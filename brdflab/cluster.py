@@ -92,7 +92,7 @@ from brdflab.cluster_tasks import (  # noqa: F401 (re-exported: the module's for
     scene_bytes,
     user_bsdf_classes,
 )
-from brdflab.errors import BrdflabError
+from brdflab.errors import BrdflabError, ascii_int
 from brdflab.kernels import engine
 
 #: Environment variable holding the default cluster address.
@@ -138,7 +138,7 @@ def parse_address(text: str) -> tuple[str, int | str]:
         n = t[6:]
         if not n:
             return "local", os.cpu_count() or 1
-        if re.fullmatch(r"[0-9]{1,9}", n) and int(n) >= 1:  # ASCII digits only ('²'.isdigit() is True)
+        if ascii_int(n) is not None and 1 <= int(n) < 10**9:
             limit = max_local_workers()
             if int(n) > limit:
                 raise BrdflabError(f"cluster address '{shown}': at most {limit} local workers (4 per core; raise "

@@ -46,6 +46,24 @@ def clean(text: object, limit: int = ECHO_CHARS) -> str:
     return s
 
 
+def ascii_int(text: str, signed: bool = False) -> int | None:
+    """``text`` as an integer when it is written in ASCII digits (an optional sign with ``signed``), else None.
+
+    Python's ``str.isdigit`` is True for '²' (which ``int`` refuses) and ``int`` itself accepts other scripts'
+    digits ('١٢'); a number typed in a scene file, an address or an option is ASCII, so every parser of counts
+    and indices uses this one rule.
+
+    Examples
+    --------
+    >>> ascii_int("12"), ascii_int("²"), ascii_int("\u0661"), ascii_int("-3"), ascii_int("-3", signed=True)
+    (12, None, None, None, -3)
+    """
+    t = text.strip() if isinstance(text, str) else ""
+    if re.fullmatch(r"[+-]?[0-9]{1,30}" if signed else r"[0-9]{1,30}", t):
+        return int(t)
+    return None
+
+
 def quoted(text: object, limit: int = ECHO_CHARS) -> str:
     """``'value'`` as :func:`clean` makes it, in single quotes (the form messages use for echoed input)."""
     return f"'{clean(text, limit)}'"

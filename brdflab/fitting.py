@@ -25,11 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.errors import BrdflabError
+from brdflab.errors import BrdflabError, clean, first_line
 
 #: Node strides (θh, θd, φd) of the data used by default.
 STRIDE = (2, 3, 6)
 LOSSES = ("log", "linear")
+#: At least this many usable nodes (3 residuals each) per free parameter value: fewer fit anything "perfectly".
+NODES_PER_PARAMETER = 10
 
 
 @dataclass
@@ -80,7 +82,8 @@ def _bounds(name: str, kind: str, default) -> tuple[float, float]:
 
 
 def data_nodes(table: np.ndarray, stride: tuple[int, int, int] = STRIDE):
-    """(ω_i, ω_o, f, cos θ_i cos θ_o) at the table nodes used for fitting (both directions above the surface)."""
+    """(ω_i, ω_o, f, cos θ_i cos θ_o) at the table nodes used for fitting: both directions above the surface
+    and a measurement there (every channel finite and ≥ 0; MERL marks unmeasured nodes negative)."""
     from brdflab.bsdf.measured import node_angles
     from brdflab.viz import coords
 
@@ -88,8 +91,45 @@ def data_nodes(table: np.ndarray, stride: tuple[int, int, int] = STRIDE):
     TH, TD, PD = np.meshgrid(th[::stride[0]], td[::stride[1]], pd[::stride[2]], indexing="ij")
     f = table[::stride[0], ::stride[1], ::stride[2]].reshape(-1, 3)
     wi, wo = coords.half_diff_to_io(TH, 0.0, TD, PD)
-    ok = (wi[:, 2] > 1e-3) & (wo[:, 2] > 1e-3)
+    with np.errstate(invalid="ignore"):
+        ok = (wi[:, 2] > 1e-3) & (wo[:, 2] > 1e-3) & np.all(np.isfinite(f) & (f >= 0), axis=1)
     return wi[ok], wo[ok], f[ok], (wi[ok, 2] * wo[ok, 2])
+
+
+def _check_stride(stride) -> tuple[int, int, int]:
+    try:
+        st = tuple(stride)
+    except TypeError:
+        st = ()
+    if len(st) != 3 or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) and 1 <= v <= 180
+                               for v in st):
+        raise BrdflabError(f"fit: stride must be three whole numbers from 1 to 180 (θh, θd, φd), got "
+                           f"{clean(stride, 40)}")
+    return tuple(int(v) for v in st)
+
+
+def _check_table(table: np.ndarray) -> None:
+    """Refuse a table with nothing to fit: no finite non-negative value, or no positive one."""
+    with np.errstate(invalid="ignore"):
+        usable = np.isfinite(table) & (table >= 0)
+    if not usable.any():
+        raise BrdflabError("fit: the measured table has no usable value (all NaN, infinite or negative)")
+    if not (table[usable] > 0).any():
+        raise BrdflabError("fit: the measured table is zero wherever it is measured: there is nothing to fit")
+
+
+def _model_call(model: str, params: dict, fn):
+    """``fn(bsdf)`` for the model at ``params``; a model that raises is the user's problem, said in one line."""
+    from brdflab.plugins import make_bsdf
+
+    try:
+        return fn(make_bsdf(model, params))
+    except BrdflabError:
+        raise
+    except Exception as exc:  # a plugin's bug: one line naming it, not a traceback
+        shown = ", ".join(f"{k}={_fmt(v)}" for k, v in params.items())
+        raise BrdflabError(f"fit: model '{clean(model, 40)}' raised {clean(first_line(exc), 120)} "
+                           f"(at {clean(shown, 100)})") from None
 
 
 def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict | None = None,
@@ -125,18 +165,24 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     from scipy.optimize import least_squares
 
     from brdflab.bsdf.measured import Measured, read_merl
-    from brdflab.plugins import bsdf_class, bsdf_parameters, make_bsdf, parameter_kinds
+    from brdflab.plugins import bsdf_class, bsdf_parameters, parameter_kinds
 
     if loss not in LOSSES:
-        raise BrdflabError(f"loss must be one of {', '.join(LOSSES)}, got '{str(loss)[:40]}'")
+        raise BrdflabError(f"loss must be one of {', '.join(LOSSES)}, got '{clean(loss, 40)}'")
+    stride = _check_stride(stride)
     if isinstance(measured, str | Path):
-        table = read_merl(measured)
+        table = read_merl(measured, raw=True)
     elif isinstance(measured, Measured):
         table = measured.table
     else:
-        table = np.asarray(measured, dtype=np.float64)
+        try:
+            table = np.asarray(measured, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise BrdflabError("fit: measured must be a Measured BSDF, a MERL file or a (90, 90, 180, 3) table") \
+                from None
     if table.shape != (90, 90, 180, 3):
         raise BrdflabError(f"a measured table has shape (90, 90, 180, 3), got {table.shape}")
+    _check_table(table)
     kinds = parameter_kinds(bsdf_class(model))
     defaults = bsdf_parameters(model)
     fixed = dict(fixed or {})
@@ -148,6 +194,11 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
         raise BrdflabError(f"fit: '{model}' has no float or colour parameter left to fit")
     wi, wo, f_meas, cc = data_nodes(table, stride)
     lo, hi, x0, layout = [], [], [], []
+    width_of = {k: 3 if kinds[k] == "color" else 1 for k in free}
+    needed = NODES_PER_PARAMETER * sum(width_of.values())
+    if len(wi) < needed:
+        raise BrdflabError(f"fit: {len(wi)} usable node(s) with stride {stride}, at least {needed} needed for "
+                           f"{sum(width_of.values())} free parameter value(s); use a smaller stride")
     for k in free:
         default = defaults.get(k)
         b = _bounds(k, kinds[k], 1.0 if default is None else float(np.mean(default)))
@@ -168,13 +219,23 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
             i += width
         return out
 
+    def model_values(x):
+        return _model_call(model, params_of(x), lambda b: np.asarray(b.eval(wi, wo), dtype=np.float64))
+
     def residual(x):
         evaluations[0] += 1
-        bsdf = make_bsdf(model, params_of(x))
-        fm = np.asarray(bsdf.eval(wi, wo), dtype=np.float64) * cc[:, None]
-        fm = np.where(np.isfinite(fm), fm, 1e3)
+        fm = model_values(x) * cc[:, None]
+        fm = np.where(np.isfinite(fm), fm, 1e3)  # steer the search away; the optimum itself is checked below
         r = (np.log1p(np.maximum(fm, 0.0)) if loss == "log" else fm) - target
+        with np.errstate(over="ignore"):
+            if not np.isfinite(np.dot(r.ravel(), r.ravel())):
+                raise BrdflabError(f"fit: the {loss} residual overflowed (Σ r² = inf) at "
+                                   f"{clean(', '.join(f'{k}={_fmt(v)}' for k, v in params_of(x).items()), 100)}: "
+                                   "the model's values are out of range for this loss"
+                                   + ("; try --loss log" if loss == "linear" else ""))
         return r.ravel()
+
+    _check_values(model, params_of(x0), model_values(x0))
 
     starts = [x0]
     if "alpha" in free:
@@ -187,14 +248,31 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     for x in starts:
         sol = least_squares(residual, np.array(x), bounds=(lo_a, hi_a), method="trf", x_scale="jac",
                             xtol=1e-10, ftol=1e-12, gtol=1e-12, max_nfev=400)
-        tried.append({"start": [float(v) for v in x], "cost": float(sol.cost)})
+        tried.append({"start": {k: _plain(v) for k, v in params_of(x).items() if k in free},
+                      "cost": float(sol.cost)})
         if best is None or sol.cost < best.cost:
             best = sol
     params = params_of(best.x)
-    fm = np.asarray(make_bsdf(model, params).eval(wi, wo), dtype=np.float64)
+    fm = model_values(best.x)
+    _check_values(model, params, fm)
     rel = float(np.sum(np.abs(fm - f_meas) * cc[:, None]) / max(np.sum(f_meas * cc[:, None]), 1e-300))
     rms = float(math.sqrt(2 * best.cost / best.fun.size))
     return FitResult(model, params, loss, rms, rel, int(len(wi)), evaluations[0], tried)
+
+
+def _plain(v):
+    return np.asarray(v).tolist() if isinstance(v, np.ndarray) else float(v) if isinstance(v, float) else v
+
+
+def _check_values(model: str, params: dict, fm: np.ndarray) -> None:
+    """A model must give finite, non-negative f at every data node: otherwise no residual means anything."""
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(fm) | (fm < 0)
+    if bad.any():
+        shown = ", ".join(f"{k}={_fmt(v)}" for k, v in params.items())
+        kind = "NaN or infinite" if (~np.isfinite(fm)).any() else "negative"
+        raise BrdflabError(f"fit: model '{clean(model, 40)}' returned {kind} f at {int(bad.any(axis=1).sum())} of "
+                           f"{len(fm)} data nodes (at {clean(shown, 100)}); a BSDF's eval must be finite and ≥ 0")
 
 
 def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, title: str = "brdflab fit",

@@ -212,9 +212,16 @@ def check_input(path: str | Path, what: str = "input file", error: type[BrdflabE
     return st.st_size
 
 
-def read_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError) -> bytes:
-    """Read a whole input file after :func:`check_input`; never blocks on a FIFO or reads past the limit."""
-    check_input(path, what, error)
+def read_input(path: str | Path, what: str = "input file", error: type[BrdflabError] = BrdflabError,
+               size: int | None = None) -> bytes:
+    """Read a whole input file after :func:`check_input`; never blocks on a FIFO or reads past the limit.
+
+    ``size``: the exact size the format requires (a MERL table): any other size is refused from the file's
+    metadata, before a byte is read (a sparse file of gigabytes costs nothing).
+    """
+    actual = check_input(path, what, error)
+    if size is not None and actual != size:
+        raise error(f"{what} has {actual} bytes, expected {size}", path)
     try:
         # O_NONBLOCK: if the path was swapped for a FIFO after the check, open() must not wait for a writer.
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
@@ -224,7 +231,7 @@ def read_input(path: str | Path, what: str = "input file", error: type[BrdflabEr
         if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
             raise error(f"{what} is not a regular file", path)
         try:
-            data = f.read()
+            data = f.read() if size is None else f.read(size + 1)
         except OSError as exc:
             raise error(f"cannot read {what}: {exc.strerror}", path) from None
     if len(data) > max_input_bytes():

@@ -31,7 +31,7 @@ def _key(path: Path) -> tuple:
         return ("path", os.path.normcase(os.path.abspath(os.path.realpath(path))))
 
 
-def check_outputs(outputs: list[str | Path], inputs: list[str | Path]) -> None:
+def check_outputs(outputs: list[str | Path], inputs: list[str | Path], option: str = "-o") -> None:
     """Raise :class:`BrdflabError` if any of ``outputs`` is the same file as any of ``inputs``, or an existing
     folder (checked before a run, so that no work is lost at the end)."""
     for out in outputs:
@@ -44,7 +44,7 @@ def check_outputs(outputs: list[str | Path], inputs: list[str | Path]) -> None:
         hit = keys.get(_key(Path(out)))
         if hit is not None:
             raise BrdflabError(f"refusing to write '{clean(out, 100)}': it is an input of this run "
-                               f"('{clean(hit, 100)}'); choose another output name with -o")
+                               f"('{clean(hit, 100)}'); choose another output name with {option}")
 
 
 def output_folder(path: str | Path, option: str = "-o") -> bool:
@@ -138,7 +138,7 @@ def made_by_brdflab(path: str | Path) -> bool:
     return False
 
 
-def check_replaceable(paths: list[str | Path], force: bool = False) -> None:
+def check_replaceable(paths: list[str | Path], force: bool = False, option: str = "-o") -> None:
     """Raise :class:`BrdflabError` if any existing ``paths`` was not written by brdflab (unless ``force``):
     brdflab replaces only its own earlier outputs."""
     if force:
@@ -147,7 +147,7 @@ def check_replaceable(paths: list[str | Path], force: bool = False) -> None:
         p = Path(p)
         if os.path.lexists(p) and not made_by_brdflab(p):
             raise BrdflabError(f"refusing to replace '{clean(p, 100)}': brdflab did not write it; choose another "
-                               "output name with -o, or pass --force to replace it")
+                               f"output name with {option}, or pass --force to replace it")
 
 
 def check_writable(folder: str | Path, option: str = "-o") -> None:
@@ -183,8 +183,8 @@ def prepare_folder(folder: str | Path, names: list[str], inputs: list[str | Path
     folder = Path(folder)
     created = output_folder(folder, option)
     outs = _expand(folder, names)
-    check_outputs(outs, list(inputs))
-    check_replaceable(outs, force)
+    check_outputs(outs, list(inputs), option)
+    check_replaceable(outs, force, option)
     check_writable(folder, option)
     return created
 
@@ -194,8 +194,8 @@ def prepare_files(paths: list[str | Path], inputs: list[str | Path] = (), force:
     """:func:`prepare_folder` for single output files (a render's EXR + PNG, a heatmap): none is an input
     or a folder, none replaces a file brdflab did not write (unless ``force``), their folders are writable."""
     paths = [Path(p) for p in paths]
-    check_outputs(paths, list(inputs))
-    check_replaceable(paths, force)
+    check_outputs(paths, list(inputs), option)
+    check_replaceable(paths, force, option)
     for folder in dict.fromkeys(p.parent for p in paths):
         output_folder(folder, option)
         check_writable(folder, option)

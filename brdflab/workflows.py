@@ -77,7 +77,8 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
         Samples per pixel of the auxiliary renders that say where and what for a biased render (0: off;
         :mod:`brdflab.stats.attribution`); the result's ``attribution`` holds it.
     cluster
-        A :class:`brdflab.cluster.Cluster` to run brdflab's runs on (one job each).
+        A :class:`brdflab.cluster.Cluster`, or its address (``"local:2"``, ``"tcp://host:8786"``), to run
+        brdflab's runs on (one job each).
 
     Returns
     -------
@@ -93,6 +94,7 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     >>> res.consistent, res.to_dict()["verdict"].split(":")[0]
     (True, 'consistent')
     """
+    from brdflab.cluster import open_cluster
     from brdflab.errors import clean
     from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.pages.check_page import CHECK_FILES, write_check
@@ -103,6 +105,8 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
 
     if spp < 1 or runs < 1:
         raise BrdflabError("spp and runs must be at least 1")
+    if isinstance(where_spp, bool) or not isinstance(where_spp, int | np.integer) or where_spp < 0:
+        raise BrdflabError(f"where_spp must be a whole number ≥ 0 (0: no attribution), got {clean(where_spp, 30)}")
     if block < 2:
         raise BrdflabError("block must be at least 2 pixels")
     if not 0 < alpha < 1:
@@ -136,9 +140,14 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
         say(f"brdflab estimate: {runs} runs × {spp} spp of {integrator} at {w}×{h}")
     # On a cluster each independent run is one job, rendered by one single-threaded worker (the scene is loaded
     # there from its path: a shared file system); the runs' seeds make the result placement-free.
-    res = run_check(images, scene, integrator, spp, runs, seed, ref_img, var_img, block, alpha,
-                    1 if cluster else workers, progress=say, user_spp=user_spp, resolution=resolution,
-                    map_fn=map if cluster is None else cluster.imap, levels=levels)
+    cluster, owned = open_cluster(cluster)  # an address ("local:2", "tcp://…") or a Cluster
+    try:
+        res = run_check(images, scene, integrator, spp, runs, seed, ref_img, var_img, block, alpha,
+                        1 if cluster else workers, progress=say, user_spp=user_spp, resolution=resolution,
+                        map_fn=map if cluster is None else cluster.imap, levels=levels)
+    finally:
+        if owned:
+            cluster.close()
     res.attribution = attribute_check(res, images, scene, integrator, seed, where_spp, workers, say)
     if output is not None:
         write_check(Path(output), paths, images, res, scene, attribution=res.attribution)

@@ -11,17 +11,17 @@ import argparse
 import math
 from collections.abc import Callable
 
-from brdflab.errors import clean
+from brdflab.errors import ascii_int, clean
 
 #: Seeds seed NumPy's SeedSequence: non-negative and below 2^64.
 SEED_LIMIT = 2**64
 
 
 def _int(text: str) -> int:
-    try:
-        return int(text, 10)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got '{clean(text)}'") from None
+    v = ascii_int(text, signed=True)
+    if v is None:
+        raise argparse.ArgumentTypeError(f"expected an integer, got '{clean(text)}'")
+    return v
 
 
 def count(lo: int = 1, hi: int | None = None) -> Callable[[str], int]:

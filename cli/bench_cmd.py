@@ -9,7 +9,7 @@ from pathlib import Path
 from brdflab.cli.argtypes import count
 from brdflab.errors import BrdflabError, clean
 
-from .options import add_plugin_option, load_plugins
+from .options import add_force_option, add_plugin_option, load_plugins
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,6 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
     p.add_argument("--json", type=Path, default=Path("benchmarks/results/latest.json"),
                    help="where to write the JSON records (default: benchmarks/results/latest.json)")
+    add_force_option(p, "a --json file")
     add_plugin_option(p)
     p.set_defaults(func=run)
 
@@ -36,9 +37,10 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.scene.loader import load_scene
 
     load_plugins(args)
+    inputs = [*args.plugin]  # what the --json file must never be
     for c in args.cases:
         if is_scene_case(c):
-            load_scene(Path(c))  # a user's scene: every error (and a missing --plugin) before any run
+            inputs += load_scene(Path(c)).inputs  # a user's scene: every error (and a missing --plugin) before any run
         elif c not in CASES:
             raise BrdflabError(f"unknown bench case '{clean(c)}'; valid: {', '.join(CASES)}, or a scene file (.xml)")
     missing = [c for c in args.cases if not is_scene_case(c) and CASES[c][0] != "<generated>"
@@ -47,12 +49,13 @@ def run(args: argparse.Namespace) -> int:
         where = clean(ROOT / CASES[missing[0]][0], 100)
         raise BrdflabError(f"bench scene of {', '.join(missing)} not found ({where}); "
                            "nothing was run")
-    from brdflab.outputs import check_outputs, check_writable, output_folder
+    from brdflab.outputs import prepare_files, record_outputs
 
-    check_outputs([args.json], [])  # before the runs: not a folder, a writable place
-    output_folder(args.json.parent, "--json")
-    check_writable(args.json.parent, "--json")
+    # before the runs: not an input, not a folder, not a file brdflab did not write (without --force), writable
+    prepare_files([args.json], inputs, args.force, "--json")
     records = run_suite(args.cases, args.spp, args.runs, args.workers, args.json, plugins=args.plugin)
+    if args.json.exists():
+        record_outputs(args.json.parent, [args.json.name])
     expected = sum(1 if is_scene_case(c) else len(CASES[c][1]) for c in args.cases)
     if len(records) < expected:
         print(f"brdflab: error: {expected - len(records)} bench run(s) failed", file=sys.stderr)

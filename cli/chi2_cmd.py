@@ -171,7 +171,12 @@ def run_samples_file(args: argparse.Namespace) -> int:
 def run_emitter_samples(args: argparse.Namespace) -> int:
     """``chi2 --samples FILE --against-emitter SCENE[:INDEX]``: exit 0 if the light samples pass, 1 if not."""
     from brdflab.errors import BrdflabError
-    from brdflab.judges.samples.light_samples import check_emitter_samples, parse_target, write_emitter_report
+    from brdflab.judges.samples.light_samples import (
+        EMITTER_REPORT_FILES,
+        check_emitter_samples,
+        parse_target,
+        write_emitter_report,
+    )
     from brdflab.scene.loader import load_scene
 
     if args.against or args.bsdf or args.warp or args.theta or args.full or args.count is not None or args.alpha \
@@ -182,12 +187,14 @@ def run_emitter_samples(args: argparse.Namespace) -> int:
     scene = load_scene(scene_path)
     out = args.output or DEFAULT_REPORTS / f"chi2_emitter_samples_{Path(args.samples).stem}"
     parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
-    output_folder(out)
+    prepare_folder(out, list(EMITTER_REPORT_FILES), [args.samples, scene_path, *scene.inputs,
+                                                     *(getattr(args, "plugin", None) or [])], args.force)
     res = check_emitter_samples(args.samples, scene, index, target=args.against_emitter)
     print(f"{res.path}: {res.samples} light samples against {res.target}")
     for line in res.messages():
         print(line)
     path = write_emitter_report(res, out)
+    record_outputs(out, list(EMITTER_REPORT_FILES))
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         from brdflab.pages.index import write_index

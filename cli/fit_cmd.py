@@ -36,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit and write the page."""
-    from brdflab.bsdf.measured import read_merl
+    from brdflab.bsdf.measured import measured_values, read_merl
     from brdflab.fitting import fit, write_fit_page
     from brdflab.outputs import prepare_folder, record_outputs
     from brdflab.plugins import bsdf_class
@@ -46,9 +46,10 @@ def run(args: argparse.Namespace) -> int:
     out = args.output or args.measured.parent / f"fit-{args.measured.stem}"
     files = ["fit.html", "fit.json", "fit_slices.png"]
     prepare_folder(out, files, [args.measured, *args.plugin], args.force)  # before the work
-    table = read_merl(args.measured)
+    raw = read_merl(args.measured, raw=True)  # unmeasured nodes are left out of the fit, not fitted as 0
     stride = {"quick": (4, 6, 12), "full": (1, 2, 3)}.get(args.effort or "normal", (2, 3, 6))
-    res = fit(table, args.model, args.loss, fixed=parse_params(args.fix), stride=stride)
+    res = fit(raw, args.model, args.loss, fixed=parse_params(args.fix), stride=stride)
+    table = measured_values(raw)
     page = write_fit_page(out, table, res, title=f"brdflab fit — {args.measured.name} as {args.model}")
     record_outputs(out, files)
     if args.json:

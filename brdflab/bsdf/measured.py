@@ -55,29 +55,38 @@ N_THETA_I, N_U, N_PHI, DEFENSIVE = 24, 64, 96, 0.1
 HEADER = np.array([N_TH, N_TD, N_PD], dtype="<i4")
 
 
-def read_merl(path: str | Path) -> np.ndarray:
+def read_merl(path: str | Path, raw: bool = False) -> np.ndarray:
     """The BRDF of a MERL ``.binary`` file as an array (90, 90, 180, 3) of f (scaled; negative → 0).
+
+    ``raw``: the values as stored (scaled), negative and non-finite ones included (MERL marks nodes without a
+    measurement with negative values; :func:`brdflab.fitting.fit` leaves such nodes out instead of fitting 0).
 
     Raises
     ------
     BrdflabError
-        Not a regular file, over the input limit, wrong dimensions or a size that does not match them.
+        Not a regular file, over the input limit, wrong dimensions or a size that does not match them (the
+        size is checked before the file is read).
     """
-    from brdflab.limits import read_input
+    from brdflab.limits import check_input, read_input
 
-    data = read_input(path, "MERL BRDF file")
     expected = HEADER.nbytes + 3 * N_TH * N_TD * N_PD * 8
-    if len(data) < HEADER.nbytes:
+    if check_input(path, "MERL BRDF file") < HEADER.nbytes:
         raise BrdflabError("MERL BRDF file is too short for its header", path)
-    dims = np.frombuffer(data[:HEADER.nbytes], dtype="<i4")
-    if not np.array_equal(dims, HEADER):
+    with open(path, "rb") as f:  # the header says what is wrong before the rest is read
+        dims = np.frombuffer(f.read(HEADER.nbytes), dtype="<i4")
+    if len(dims) == len(HEADER) and not np.array_equal(dims, HEADER):
         raise BrdflabError(f"MERL BRDF file has dimensions {tuple(int(d) for d in dims)}, expected (90, 90, 180)",
                            path)
-    if len(data) != expected:
-        raise BrdflabError(f"MERL BRDF file has {len(data)} bytes, expected {expected} for 90×90×180×3 doubles", path)
+    data = read_input(path, "MERL BRDF file (90×90×180×3 doubles)", size=expected)
     v = np.frombuffer(data[HEADER.nbytes:], dtype="<f8").reshape(3, N_TH, N_TD, N_PD)
     table = np.moveaxis(v, 0, -1) * SCALE
-    return np.where(np.isfinite(table) & (table > 0), table, 0.0)
+    return table if raw else measured_values(table)
+
+
+def measured_values(table: np.ndarray) -> np.ndarray:
+    """A raw table with its unmeasured nodes (negative, NaN, infinite) set to 0, as rendering needs it."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(table) & (table > 0), table, 0.0)
 
 
 def write_merl(path: str | Path, table: np.ndarray) -> None:

@@ -323,20 +323,30 @@ def _pdf_check(s: EmitterSamples, light: _Light, owner, tri, ns, on) -> Check:
     fv = s.pdf[area]
     front = cos > 1e-6
     cmp_ = front & np.isfinite(ours) & (ours > 0)
-    if cmp_.sum() == 0:
-        return Check("pdf", False, "no front-facing sample on an area light to compare (no data is not a pass)")
-    f, ob = fv[cmp_], ours[cmp_]
+    # Points on a point light: a discrete choice, whose probability is the selection's p_sel (either measure).
+    point = on & (tri < 0)
+    if cmp_.sum() + point.sum() == 0:
+        return Check("pdf", False, "no front-facing sample on an area light and none on a point light to compare "
+                     "(no data is not a pass)")
+    f = np.concatenate([fv[cmp_], s.pdf[point]])
+    ob = np.concatenate([ours[cmp_], light.p_sel[owner[point]]])
+    units = np.concatenate([np.where(solid[cmp_], "per sr", "per unit area"), np.full(int(point.sum()), "discrete")])
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.abs(f - ob) / np.maximum(np.maximum(f, ob), 1e-300)
     frac = float((rel > COLUMN_RTOL).mean())
     ok = frac <= COLUMN_FRACTION
     i = int(np.argmax(rel))
-    lines = s.lines[area][cmp_]
-    summary = (f"{int(cmp_.sum())} front-facing samples compared: {100 * frac:.2f} % differ by more than "
+    lines = np.concatenate([s.lines[area][cmp_], s.lines[point]])
+    what = " and ".join(w for w, k in (("front-facing samples on area lights", cmp_.sum()),
+                                        ("samples of point lights", point.sum())) if k)
+    summary = (f"{len(f)} {what} compared: {100 * frac:.2f} % differ by more than "
                f"{100 * COLUMN_RTOL:g} % (worst line {int(lines[i])}: file {f[i]:.6g}, brdflab {ob[i]:.6g} "
-               f"{'per sr' if solid[cmp_][i] else 'per unit area'})")
+               f"{units[i]})")
     hint = ""
-    if not ok:
+    f, ob = f[: int(cmp_.sum())], ob[: int(cmp_.sum())]  # the hints below explain area-light pdfs
+    if not ok and not len(f):
+        hint = "a point light's pdf is the probability of choosing it (1 for a single light), in either measure"
+    elif not ok:
         c, rr2, sol = np.abs(cos[cmp_]), r2[cmp_], solid[cmp_]
         ps = p_sel[cmp_]
         tri_a = light.tri_area[tri[area][cmp_]]
@@ -378,6 +388,9 @@ def _distribution_check(s: EmitterSamples, light: _Light, owner, tri, bary, on, 
     for i, j in enumerate(deltas):
         obs[n_tri * cells + i] = np.count_nonzero(on & (owner == j))
     prob = np.concatenate([np.repeat(light.tri_prob / cells, cells), light.p_sel[deltas]])
+    if len(obs) == 1 and deltas:  # one point light: all its points are the point itself (checked above)
+        return Check("distribution", True, f"{m} points on a single point light: one cell, nothing to distribute "
+                     "(the points' position is the check 'points on the emitter')")
     exp = prob / prob.sum() * m
     stat, dof, p = _pearson(obs, exp)
     ok = bool(np.isfinite(p) and p >= threshold)

@@ -55,7 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.errors import BrdflabError
+from brdflab.errors import BrdflabError, ascii_int
 from brdflab.judges.lights.samplers import shading_normals
 from brdflab.judges.material import chi2 as c2
 from brdflab.judges.samples.bsdf_checks import read_table
@@ -109,8 +109,9 @@ def read_emitter_samples(path: str | Path) -> EmitterSamples:
 def parse_target(text: str) -> tuple[Path, int | None]:
     """``scene.xml:2`` → (scene.xml, 2); ``scene.xml`` → (scene.xml, None)."""
     head, sep, tail = text.rpartition(":")
-    if sep and tail.strip().isdigit() and head:
-        return Path(head), int(tail)
+    index = ascii_int(tail) if sep and head else None
+    if index is not None:
+        return Path(head), index
     return Path(text), None
 
 
@@ -265,17 +266,18 @@ def own_samples(scene, index: int | None, n: int, seed: int = 0) -> np.ndarray:
     return out
 
 
+#: The files :func:`write_emitter_report` writes (checked by :func:`brdflab.outputs.prepare_folder`).
+EMITTER_REPORT_FILES = ("emitter_samples.html", "emitter_samples.json")
+
+
 def write_emitter_report(res: EmitterSamplesResult, out: Path) -> Path:
     """Write ``emitter_samples.json`` and ``emitter_samples.html`` into ``out``; return the page path."""
-    import json
-
-    from brdflab.imageio import _atomic_write
+    from brdflab.outputs import json_text, write_text
     from brdflab.pages import page as html
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(res.to_dict(), indent=2, default=float)
-    _atomic_write(out / "emitter_samples.json", lambda tmp: Path(tmp).write_text(text))
+    write_text(out / "emitter_samples.json", json_text(res.to_dict(), indent=2))
     rows = [[c.name, "passed" if c.passed else "FAILED", c.summary, c.hint] for c in res.checks]
     body = html.section("Verdict", html.esc_p(f"{res.path}: {res.samples} light samples against {res.target}: "
                                               + ("all checks passed" if res.passed else "FAILED"))
@@ -284,5 +286,5 @@ def write_emitter_report(res: EmitterSamplesResult, out: Path) -> Path:
                                               "brdflab/judges/samples/light_samples.py."))
     page = html.page(f"brdflab light samples — {Path(res.path).name}", body)
     path = out / "emitter_samples.html"
-    _atomic_write(path, lambda tmp: Path(tmp).write_text(page))
+    write_text(path, page)
     return path
