@@ -43,6 +43,40 @@ def _load_plugins(plugins) -> None:
     load_plugins([plugins] if isinstance(plugins, str | Path) else plugins)
 
 
+#: Which methods of a scene's BSDFs each integrator calls for brdflab's own estimate (a bug in a method the
+#: estimate calls is in the estimate too, so the check cannot see it).
+USER_METHODS = {"direct_ems": ("eval",), "direct_mats": ("sample",), "direct_mis": ("eval", "pdf", "sample"),
+                "direct_whitted": ("eval",), "normals": ()}
+
+
+def estimate_integrator(scene, integrator: str | None) -> tuple[str, str]:
+    """The integrator of brdflab's estimate for ``check``, and a sentence saying whose code it runs.
+
+    Asked for one (``integrator``): that one. Otherwise the scene's, except when the scene has a user's BSDF
+    (a plugin) and the scene's integrator calls its ``sample``/``pdf``: then ``direct_ems``, which calls only
+    ``eval`` — a bug in the plugin's sampler or pdf would otherwise be in brdflab's estimate as well and cancel
+    out (a render and an estimate that share a bug agree).
+    """
+    from brdflab.builtin_types import is_builtin_class
+
+    mine = sorted({type(b).__name__ for b in scene.bsdfs if not is_builtin_class(type(b))})
+    chosen = integrator or scene.integrator_type
+    if integrator is None and mine and "direct_ems" in USER_METHODS and chosen in ("direct_mats", "direct_mis"):
+        chosen = "direct_ems"
+    if not mine:
+        return chosen, ""
+    uses = USER_METHODS.get(chosen, ("eval", "pdf", "sample"))
+    unused = [m for m in ("eval", "pdf", "sample") if m not in uses]
+    what = ", ".join(f"{m}()" for m in uses) or "none of its methods"
+    note = (f"brdflab's estimate ({chosen}) runs your {', '.join(mine)}'s {what}: a bug there is in both images "
+            "and cannot show")
+    if unused:
+        note += f"; {', '.join(f'{m}()' for m in unused)} are not used, so a bug in them shows as a difference"
+    if integrator is None and chosen != scene.integrator_type:
+        note += f" (the scene's {scene.integrator_type} would run your sampler too; --integrator to choose)"
+    return chosen, note
+
+
 def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int = 32, runs: int = 4,
           seed: int = 0, ref=None, ref_var=None, user_spp: int | None = None, block: int = 16, levels: int = 4,
           alpha: float = 0.01, workers: int | None = None, output: str | Path | None = None, force: bool = False,
@@ -57,7 +91,8 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     scene
         The Nori scene file they show.
     integrator
-        brdflab's integrator for its own estimate (default: the scene's).
+        brdflab's integrator for its own estimate (default: the scene's; with a user's BSDF whose ``sample`` or
+        ``pdf`` the scene's integrator would call, ``direct_ems``: see :func:`estimate_integrator`).
     spp, runs, seed
         brdflab's independent runs (each ``spp`` samples per pixel) and their base seed.
     ref, ref_var
@@ -116,7 +151,7 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     _load_plugins(plugins)
     scene = Path(scene)
     sc = load_scene(scene)
-    integrator = integrator or sc.integrator_type
+    integrator, estimate_note = estimate_integrator(sc, integrator)
     make_integrator(integrator)
     items = list(renders) if isinstance(renders, list | tuple) else [renders]
     images = [_image(r, f"render {i + 1}") for i, r in enumerate(items)]
@@ -138,6 +173,8 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     say = progress or (lambda m: None)
     if ref_img is None:
         say(f"brdflab estimate: {runs} runs × {spp} spp of {integrator} at {w}×{h}")
+        if estimate_note:
+            say(estimate_note)
     # On a cluster each independent run is one job, rendered by one single-threaded worker (the scene is loaded
     # there from its path: a shared file system); the runs' seeds make the result placement-free.
     cluster, owned = open_cluster(cluster)  # an address ("local:2", "tcp://…") or a Cluster
@@ -148,6 +185,8 @@ def check(renders, scene: str | Path, *, integrator: str | None = None, spp: int
     finally:
         if owned:
             cluster.close()
+    res.estimate_integrator = integrator if ref_img is None else ""
+    res.estimate_note = estimate_note if ref_img is None else ""
     res.attribution = attribute_check(res, images, scene, integrator, seed, where_spp, workers, say)
     if output is not None:
         write_check(Path(output), paths, images, res, scene, attribution=res.attribution)

@@ -65,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
                     levels=args.levels, alpha=args.alpha, workers=args.workers, output=out, force=args.force,
                     plugins=args.plugin, progress=say, where_spp=args.where_spp, cluster=cluster)
     print(res.verdict())
+    if res.estimate_note:
+        print(res.estimate_note)
     for line in [] if res.attribution is None or args.quiet else attribution_lines(res.attribution):
         print(line)
     say(f"cost: {res.seconds:.1f} s; wrote {out / 'check.html'} and {out / 'check.json'}")

@@ -8,9 +8,14 @@ reference (given, or ``direct_mis`` renders made first with independent seeds) u
 :mod:`brdflab.pages.metrics`; per (integrator, spp) the runs give means and 95 % intervals:
 
 * relMSE, MSE, MAPE, seconds: t intervals over the runs on log scale (delta method; positive);
-* bias = mean(x)/mean(r) − 1 of the image mean (over R, G, B): t interval whose variance adds the
-  reference's own image-mean variance (Welch–Satterthwaite df); ``bias_significant`` by Holm's
-  step-down procedure over all rows at family-wise level :data:`BIAS_ALPHA`;
+* bias = mean(x)/mean(r) − 1 of the image mean (over R, G, B), averaged over the runs. Its variance comes
+  from **within each run** (:func:`bias_variance`: the spread of x − r inside 16-pixel blocks, with the pixels'
+  correlation, over hundreds of blocks — so it is known to many degrees of freedom even for 2 runs), plus the
+  reference's own image-mean variance, which all runs share: Var = Σ_k v_k / K² + (1 − 1/K)·Var(r̄). The
+  spread of K run biases (K − 1 degrees of freedom) made the test anticonservative at small K: two runs that
+  agree by chance gave a tiny interval (a correct material was called biased at p = 1e-37 with 2 runs).
+  A normal interval; ``bias_significant`` by Holm's step-down procedure over all rows at family-wise level
+  :data:`BIAS_ALPHA`; false alarms measured by ``benchmarks/bias_false_alarms.py`` (docs/benchmarks.md);
 * efficiency = 1/(relMSE · seconds), from the per-run products p_k = relMSE_k · seconds_k as
   1/mean(p) with a delta-method interval on log scale; speed-ups are ratios of mean products
   (:func:`brdflab.stats.intervals.log_ratio_interval`), stated only when the interval excludes 1;
@@ -77,6 +82,8 @@ class Checkpoint:
     bias: float
     run: int = 0
     flip: float | None = None
+    bias_var: float = math.nan
+    """Variance of ``bias`` estimated within this run (:func:`bias_variance`)."""
 
 
 @dataclass
@@ -196,7 +203,8 @@ def measure_run(job, ref: np.ndarray, figure_spp: tuple[int, ...], run: int, fli
             from brdflab.pages.metrics import flip_error
 
             fl = flip_error(img, ref, flip_params)
-        res.checkpoints.append(Checkpoint(job.integrator, spp, seconds, m.relmse, m.mse, m.mape, m.bias, run, fl))
+        res.checkpoints.append(Checkpoint(job.integrator, spp, seconds, m.relmse, m.mse, m.mape, m.bias, run, fl,
+                                          bias_variance(img, ref)))
         if spp == job.spp or (run == 0 and spp in figures):
             res.images[spp] = img
         if run == 0:
@@ -251,6 +259,26 @@ def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=
     _, _, mean_var, _ = _side_from_runs(_with_mean_channel(a), valid, 16)
     rel_var = float(mean_var[3]) / float(ref[valid].mean()) ** 2
     return ref.astype(np.float32), noise, rel_var, secs
+
+
+def bias_variance(img: np.ndarray, ref: np.ndarray, block: int = 16) -> float:
+    """Variance of one render's relative bias mean(x)/mean(r) − 1, estimated from that render alone: the spread of
+    d = x − r (channel mean) inside ``block``-pixel blocks, corrected for the correlation of neighbouring pixels
+    (the reconstruction filter), summed over all blocks (:func:`brdflab.stats.check_scan._residual`). It contains
+    the reference's per-pixel noise too. NaN when the image has no valid pixel or a zero mean."""
+    from brdflab.stats.check_scan import _residual
+
+    x = np.asarray(img, dtype=np.float64)
+    r = np.asarray(ref, dtype=np.float64)
+    valid = np.isfinite(x).all(axis=2) & np.isfinite(r).all(axis=2)
+    if not valid.any():
+        return math.nan
+    mr = float(r[valid].mean())
+    if mr == 0:
+        return math.nan
+    d = np.where(valid[..., None], x - r, 0.0).mean(axis=2, keepdims=True)
+    _, _, mean_var, _ = _residual(d, valid, block)
+    return float(mean_var[0]) / mr**2
 
 
 def given_reference_noise(ref: np.ndarray, finals: list[np.ndarray]) -> tuple[float, float]:
@@ -404,7 +432,7 @@ def aggregate(study: Study) -> list[Row]:
     """Per (integrator, spp) reached by every run: means and intervals over the runs (module docstring)."""
     from scipy import stats as st
 
-    from brdflab.stats.intervals import mean_interval, positive_interval, welch_df
+    from brdflab.stats.intervals import mean_interval, positive_interval
 
     rows = []
     for name in study.integrators:
@@ -426,20 +454,16 @@ def aggregate(study: Study) -> list[Row]:
             mse, mse_ci = tci([c.mse for c in cs])
             mape, mape_ci = tci([c.mape for c in cs])
             b = np.array([c.bias for c in cs])
-            vb = (b.var(ddof=1) / k if k > 1 else 0.0)
-            var = vb + study.reference_mean_var
-            df = float(welch_df([vb, study.reference_mean_var], [max(k - 1, 1), np.inf])) if var > 0 else np.inf
+            within = np.array([c.bias_var for c in cs])
+            # the runs' own variances (each contains the shared reference noise once) + the rest of the shared part
+            var = float(within.sum() / k**2 + (1.0 - 1.0 / k) * study.reference_mean_var)
             bias = float(b.mean())
-            if name == study.reference_integrator:  # measured against itself: a shared bias cannot show
-                lo = hi = math.nan
+            if name == study.reference_integrator or not (np.isfinite(var) and var > 0):
+                lo = hi = math.nan  # measured against itself (a shared bias cannot show), or nothing to judge by
                 p = math.nan
-            elif var > 0 and k > 1:
-                lo, hi = mean_interval(bias, var, df, LEVEL)
-                tstat = bias / math.sqrt(var)
-                p = float(2 * (st.t.sf(abs(tstat), df) if np.isfinite(df) else st.norm.sf(abs(tstat))))
             else:
-                lo = hi = math.nan
-                p = math.nan
+                lo, hi = mean_interval(bias, var, np.inf, LEVEL)
+                p = float(2 * st.norm.sf(abs(bias) / math.sqrt(var)))
             prod = np.array([c.relmse * c.seconds for c in cs])
             eff = 1.0 / prod.mean() if prod.mean() > 0 else math.inf
             _, plo, phi = positive_interval(prod, LEVEL)

@@ -134,6 +134,10 @@ class CheckResult:
     reference_spp: int = 0
     seconds: float = 0.0
     reference_label: str = ""
+    estimate_integrator: str = ""
+    """The integrator of brdflab's estimate ("" with a given reference)."""
+    estimate_note: str = ""
+    """Which of a user's BSDF methods the estimate ran (what a shared bug hides), set by ``bl.check``."""
     estimate: np.ndarray | None = field(default=None, repr=False)
     """brdflab's estimate (mean image), set by :func:`run_check`."""
     runs: np.ndarray | None = field(default=None, repr=False)
