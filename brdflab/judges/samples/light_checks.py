@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from brdflab.errors import BrdflabError
+from brdflab.judges.core.precision import rounding_variance
 from brdflab.judges.lights.samplers import SUB, emitter_triangles, shading_normals, subtriangle_cell
 from brdflab.judges.material import chi2 as c2
 from brdflab.judges.samples.bsdf_checks import COLUMN_FRACTION, COLUMN_RTOL, _ratio_hint
@@ -255,9 +256,10 @@ def _self_consistency_check(s: EmitterSamples, light: _Light, owner, tri, bary, 
     s2 = np.bincount(bin_of, s2, minlength=n_bins)
     expect_b = np.bincount(bin_of, expect, minlength=n_bins)
     hits_b = np.bincount(bin_of, hits, minlength=n_bins)
-    var = np.maximum(s2 - s1 * s1, 0.0) / n_calls
+    # sample variances + the rounding floor of float32 pdf columns (judges.core.precision): rounding is no bug
+    var = np.maximum(s2 - s1 * s1, 0.0) / n_calls + rounding_variance(expect_b)
     total_s, total_e = float(s1.sum()), float(expect_b.sum())
-    var_total = max((float(np.sum(inv * inv)) / n_calls - total_s ** 2) / n_calls, 0.0)
+    var_total = max((float(np.sum(inv * inv)) / n_calls - total_s ** 2) / n_calls, 0.0) + rounding_variance(total_e)
     tested_b = (hits_b >= POOL // 2) & (var > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(tested_b, (s1 - expect_b) / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)

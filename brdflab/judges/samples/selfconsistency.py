@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.judges.core.precision import rounding_variance
 from brdflab.judges.material import chi2 as c2
 
 #: Cells with fewer expected r-weighted samples than this are pooled.
@@ -251,8 +252,9 @@ def statistic(b: Binning, pdf_column: np.ndarray) -> tuple[float, int, float, np
         mu_t = float(b.mu.sum())
         # The larger of the sample variance and E[w²] − μ² (H0's: it stays positive when no sample happened
         # to fail although ∫ r < 1 by 10⁻⁵, where the sample variance is 0).
+        # + the rounding floor of float32 columns (judges.core.precision): 10⁻⁷ of rounding is never a bug.
         var_t = max(sw2 / n - (sw / n) ** 2, sw2 / n - mu_t**2, 0.0) / n + (3 * b.integration_error) ** 2 + \
-            (1e-9 * mu_t) ** 2
+            rounding_variance(mu_t)
         z_t = (sw / n - mu_t) / np.sqrt(max(var_t, 1e-300))
         p_total = float(2 * stats.norm.sf(abs(z_t))) if np.isfinite(z_t) else 0.0
         # Two tests of one hypothesis, Šidák-combined: p = 1 − (1 − min p)².

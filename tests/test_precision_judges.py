@@ -1,0 +1,60 @@
+"""Judges of others' numbers know their precision (issue 40): a correct sampler whose pdf column was computed in
+float32 is not a bug (the variance of a total collapses to the rounding's when the file's method is brdflab's),
+while a real factor error of 10⁻³ still fails."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brdflab.judges.core.precision import FLOAT32_EPS, ROUNDING_UNITS, rounding_variance
+from brdflab.judges.samples.light_samples import check_emitter_samples, own_samples
+from brdflab.scene.loader import load_scene
+from tests.conftest import ROOT
+
+SCENE = ROOT / "scenes/cbox/cbox_diffuse.xml"
+
+
+def _self_consistency(res):
+    return next(c for c in res.checks if c.name == "self-consistency")
+
+
+@pytest.fixture(scope="module")
+def light_rows():
+    """brdflab's own light samples written in area measure (p_A = p_ω·|cos θ_y|/r², measure 0), as a uniform-area
+    sampler reports them: every call counts toward Σ 1/p_A, whose sample variance is then 0 up to rounding."""
+    rows = own_samples(load_scene(SCENE), None, 20_000, seed=21)
+    v = rows[:, 0:3] - rows[:, 3:6]
+    r2 = np.sum(v * v, axis=1)
+    cos = np.abs(np.sum(v * rows[:, 6:9], axis=1)) / np.sqrt(r2)
+    p_a = rows[:, 9] * cos / r2  # 1/A of the one quad light where the sample faced x (0 elsewhere)
+    rows[:, 9] = np.median(p_a[p_a > 0])  # a uniform-area sampler's p_A, for every call
+    rows[:, 10] = 0.0
+    return rows
+
+
+def test_float32_rounding_of_a_correct_light_sampler_passes(tmp_path, light_rows):
+    """The students' case: a uniform-area light sampler whose pdf column is float32 and 1.2e-7 low on average
+    read 'Σ 1/p_A = 0.1786 for the expected 0.1786 (z = -54.79)' before the rounding floor."""
+    rows = light_rows.copy()
+    rows[:, 9] = (rows[:, 9].astype(np.float32) * np.float32(1 - 1.2e-7)).astype(np.float64)
+    np.savetxt(tmp_path / "f32.txt", rows, fmt="%.9g")
+    res = check_emitter_samples(tmp_path / "f32.txt", load_scene(SCENE))
+    sc = _self_consistency(res)
+    assert sc.passed, sc.summary
+    assert res.passed, res.messages()
+
+
+@pytest.mark.parametrize("factor", [1 - 1e-3, 1 + 1e-3])
+def test_a_real_factor_error_still_fails(tmp_path, light_rows, factor):
+    rows = light_rows.copy()
+    rows[:, 9] *= factor
+    np.savetxt(tmp_path / "bad.txt", rows, fmt="%.9g")
+    sc = _self_consistency(check_emitter_samples(tmp_path / "bad.txt", load_scene(SCENE)))
+    assert not sc.passed, sc.summary
+
+
+def test_the_floor_is_a_few_float32_units():
+    assert rounding_variance(2.0) == pytest.approx((ROUNDING_UNITS * FLOAT32_EPS * 2.0) ** 2)
+    assert 1e-7 < rounding_variance(1.0) ** 0.5 < 1e-5  # far below any real bug (≥ 1e-3), far above rounding
+    assert rounding_variance(np.array([1.0, 2.0])).shape == (2,)
