@@ -164,7 +164,9 @@ def run_samples_file(args: argparse.Namespace) -> int:
     if root is not None:
         write_index(root)
     bad = [g for g in res.groups if not g.passed]
-    print(("ALL PASSED" if res.passed else f"{len(bad)} of {len(res.groups)} wi group(s) FAILED") + f"; report: {path}")
+    verdict = [f"{len(bad)} of {len(res.groups)} wi group(s) FAILED"] if bad else []
+    verdict += [f"{res.nonfinite['count']:,} non-finite sample(s): FAILED"] if res.nonfinite else []
+    print(("ALL PASSED" if res.passed else "; ".join(verdict)) + f"; report: {path}")
     return 0 if res.passed else 1
 
 

@@ -67,7 +67,7 @@ def test_columns_map_to_fields(tmp_path, kind, ncol):
     ("0 0 1 0 0 1 0.3\n\n# c\n0 0 1 0 0 1\n", 4, "6 columns, but line 1 has 7"),
     ("# only\n0 0 1 0 0\n", 2, "5 columns"),
     ("0 0 1 0 0 1 0.3\n0 0 1 0 0 x 0.3\n", 2, "'x' is not a number"),
-    ("\n\n0 0 1 0 0 1 nan\n", 3, "non-finite"),
+    ("\n\nnan 0 1 0 0 1 0.3\n", 3, "wi is not finite"),
 ])
 def test_errors_name_the_line(tmp_path, text, line, message):
     p = tmp_path / "bad.txt"

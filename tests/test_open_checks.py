@@ -322,7 +322,7 @@ def test_external_npy_weights_and_warp_files(tmp_path):
     ("0 0 1 0 0 1 0.3\n0 0 1 0 0 1\n", "bad.txt:2: 6 columns, but line 1 has 7"),
     ("# c\n0 0 1 0 0 x\x07yz 0.3\n", "bad.txt:2: 'x\\x07yz' is not a number"),
     ("0 0 1 0 0 1 0.3 1\n", "bad.txt:1: 8 columns; expected 6, 7 or 10"),
-    ("0 0 1 0 0 nan\n", "bad.txt:1: non-finite value"),
+    ("nan 0 1 0 0 1\n", "bad.txt:1: wi is not finite"),
     ("# only a comment\n", "bad.txt: no samples")])
 def test_bad_sample_files_exit_2_with_file_and_line(tmp_path, capsys, text, message):
     p = tmp_path / "bad.txt"

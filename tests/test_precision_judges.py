@@ -58,3 +58,33 @@ def test_the_floor_is_a_few_float32_units():
     assert rounding_variance(2.0) == pytest.approx((ROUNDING_UNITS * FLOAT32_EPS * 2.0) ** 2)
     assert 1e-7 < rounding_variance(1.0) ** 0.5 < 1e-5  # far below any real bug (≥ 1e-3), far above rounding
     assert rounding_variance(np.array([1.0, 2.0])).shape == (2,)
+
+
+# -- NaN and infinite values are findings about the sampler, not a malformed file -------------------------------
+def test_nan_weights_below_the_surface_are_a_named_finding(tmp_path, capsys):
+    """The students' writer turned 0/0 weights below the horizon into failed samples and the raw file was refused
+    as malformed (exit 2); they are a verdict (exit 1) with how many, which column, where and the usual cause."""
+    import brdflab as bl
+    from brdflab.cli.main import main
+
+    rng = np.random.default_rng(8)
+    n = 30_000
+    wi = np.tile([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))], (n, 1))
+    s = bl.RoughConductor(R0=0.9, alpha=0.3).sample(wi, rng.random((n, 3)))
+    w = s.weight.copy()
+    below = s.wo[:, 2] <= 0
+    assert below.sum() > 50
+    w[below] = np.nan
+    w[:3] = np.inf  # and a few infinities above the surface
+    np.savetxt(tmp_path / "nan.txt", np.column_stack([wi, s.wo, s.pdf, w]), fmt="%.9g")
+    assert main(["chi2", "--samples", str(tmp_path / "nan.txt"), "--against", "roughconductor", "--alpha", "0.3",
+                 "--param", "R0=0.9", "-o", str(tmp_path / "r")]) == 1
+    out = capsys.readouterr().out
+    assert f"{below.sum() + 3:,} of 30,000 samples have a non-finite value ({below.sum():,} NaN" in out, out
+    assert f"{below.sum():,} of them have ω_o below the surface" in out and "non-finite sample(s): FAILED" in out
+    # negative control: the same file with the NaNs written as the students' writer did (failed samples) passes
+    w[below] = 0.0
+    w[:3] = s.weight[:3]
+    np.savetxt(tmp_path / "ok.txt", np.column_stack([wi, s.wo, s.pdf, w]), fmt="%.9g")
+    assert main(["chi2", "--samples", str(tmp_path / "ok.txt"), "--against", "roughconductor", "--alpha", "0.3",
+                 "--param", "R0=0.9", "-o", str(tmp_path / "r2")]) == 0

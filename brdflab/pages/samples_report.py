@@ -92,7 +92,8 @@ def write_samples_report(res, out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     lines = res.messages()
     notes = list(res.notes)
-    failures = ["; ".join(x.strip() for x in res._group_lines(g)) for g in res.groups if not g.passed]
+    failures = ["; ".join(x.strip() for x in res.nonfinite_lines())] if res.nonfinite else []
+    failures += ["; ".join(x.strip() for x in res._group_lines(g)) for g in res.groups if not g.passed]
     failures += [x.strip() for x in lines if x.strip().startswith("WARNING")]
     summary = (f"{res.path}: {sum(g.n for g in res.groups)} samples in {len(res.groups)} ω_i group(s) against "
                f"{res.against} (per-group threshold {res.threshold:.3g}, Šidák over the groups). "

@@ -210,6 +210,7 @@ def check_samples(samples: str | Path | Samples, against, *, alpha: float | None
                                 thr, fit))
     res = ExternalResult(s.path, name, {"alpha": alpha, **params} if alpha is not None else params, out, thr)
     res.notes = notes
+    res.nonfinite = s.nonfinite_info
     return res
 
 

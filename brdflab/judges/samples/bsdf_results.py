@@ -133,15 +133,35 @@ class ExternalResult:
 
     @property
     def passed(self) -> bool:
-        """Every group passed."""
-        return bool(self.groups) and all(g.passed for g in self.groups)
+        """Every group passed, and the sampler wrote no NaN or infinity."""
+        return bool(self.groups) and all(g.passed for g in self.groups) and not self.nonfinite
 
     #: Parameter lines (values used, defaults marked) and warnings, printed once before the groups.
     notes: list[str] = field(default_factory=list)
+    #: NaN/inf values the sampler wrote (:func:`brdflab.judges.samples.tables.nonfinite_summary`), a finding.
+    nonfinite: dict | None = None
+
+    def nonfinite_lines(self) -> list[str]:
+        """The finding about NaN/inf values, with where they are and the usual cause."""
+        f = self.nonfinite
+        if not f:
+            return []
+        cols = ", ".join(f"{k} {v:,}" for k, v in f["columns"].items())
+        where = ", ".join(str(v) for v in f["lines"])
+        out = [f"FAIL  {f['count']:,} of {f['total']:,} samples have a non-finite value ({f['nan']:,} NaN; by column: "
+               f"{cols}), first at line(s) {where}"]
+        if f["below_surface"]:
+            out.append(f"  hint: {f['below_surface']:,} of them have ω_o below the surface: a 0/0 where the sample "
+                       "failed — return weight 0 (and pdf 0) there; a renderer that drops NaN samples loses their "
+                       "light silently")
+        else:
+            out.append("  hint: a division by a zero pdf or cosine, or a sqrt/acos of a value outside its domain; they "
+                       "are counted as failed samples in the checks below")
+        return out
 
     def messages(self) -> list[str]:
         """One line per group (verdict), then one line per failure saying which check failed and why."""
-        out = list(self.notes)
+        out = list(self.notes) + self.nonfinite_lines()
         seen = set(out)
         for g in self.groups:
             out.extend(self._group_lines(g))

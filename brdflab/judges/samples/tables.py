@@ -35,6 +35,11 @@ class Samples:
     weight: np.ndarray | None
     lines: np.ndarray
     direction_only: bool = False
+    nonfinite_info: dict | None = None
+    """What :func:`nonfinite_summary` found (None when every value is finite)."""
+    nonfinite: np.ndarray | None = None
+    """(N,) True where the sampler wrote NaN or ±inf in wo, pdf or a weight (a finding about the sampler, not a
+    malformed file); such rows are failed samples for the other checks, as a renderer that drops them loses them."""
 
 
 def _columns(path: str, data: np.ndarray, lines: np.ndarray, ncol: int) -> Samples:
@@ -68,14 +73,42 @@ def read_samples(path: str | Path) -> Samples:
     >>> s.wo.shape, s.pdf.tolist()
     ((2, 3), [0.318, 0.2546])
     """
-    data, lines, ncol = read_table(path, ALLOWED, EXPECTED)
-    return _columns(str(path), data, lines, ncol)
+    data, lines, ncol = read_table(path, ALLOWED, EXPECTED, nonfinite_ok=True)
+    bad = ~np.isfinite(data).all(axis=1)
+    if ncol >= 6 and not np.isfinite(data[:, :3]).all():  # wi is the input, not the sampler's output
+        i = int(np.argmax(~np.isfinite(data[:, :3]).all(axis=1)))
+        raise BrdflabError("wi is not finite (it is the sampler's input)", file=path, line=int(lines[i]))
+    info = None
+    if bad.any():
+        info = nonfinite_summary(data[:, 3:] if ncol >= 6 else data, lines, bad, ncol >= 6)
+        data = data.copy()
+        data[bad, 3 if ncol >= 6 else 0:] = 0.0  # a failed sample (wo = 0, pdf 0, weight 0): what a renderer keeps
+    s = _columns(str(path), data, lines, ncol)
+    s.nonfinite, s.nonfinite_info = (bad, info) if bad.any() else (None, None)
+    return s
 
 
-def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tuple[np.ndarray, np.ndarray, int]:
+def nonfinite_summary(out: np.ndarray, lines: np.ndarray, bad: np.ndarray, has_wi: bool) -> dict:
+    """How many rows hold NaN/inf, in which columns, the first lines, and how many of them have a finite ω_o below
+    the surface (the usual cause: 0/0 for a failed sample)."""
+    names = ["wo", "wo", "wo", "pdf", "weight", "weight", "weight"] if has_wi else ["x", "x", "x", "pdf"]
+    cols = {}
+    for j in range(out.shape[1]):
+        k = int((~np.isfinite(out[:, j])).sum())
+        if k:
+            cols[names[j]] = max(cols.get(names[j], 0), k)
+    wo = out[bad, :3]
+    below = int((np.isfinite(wo).all(axis=1) & (wo[:, 2] <= 0)).sum()) if has_wi else 0
+    return {"count": int(bad.sum()), "total": int(len(bad)), "nan": int(np.isnan(out[bad]).any(axis=1).sum()),
+            "columns": cols, "lines": [int(v) for v in lines[bad][:5]], "below_surface": below}
+
+
+def read_table(path: str | Path, allowed: tuple[int, ...], expected: str,
+               nonfinite_ok: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
     """Read a numeric table in the samples-file conventions (text with ``#`` comments, ``.npy``, or ``.npz``
     with the key ``samples``): (N, k) float64 data, the file line (text) or row (arrays) of each sample, and
-    k, which must be one of ``allowed`` (``expected`` says so in the error).
+    k, which must be one of ``allowed`` (``expected`` says so in the error). ``nonfinite_ok``: NaN and ±inf are
+    values (the caller judges them) instead of a malformed file.
 
     Raises
     ------
@@ -96,7 +129,7 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
                                f"{_short(str(arr.dtype), 20)} shape {arr.shape}", file=path)
         data = arr.astype(np.float64)
         bad = ~np.isfinite(data).all(axis=1)
-        if bad.any():
+        if bad.any() and not nonfinite_ok:
             raise BrdflabError(f"row {int(np.argmax(bad))}: non-finite value", file=path)
         return data, np.arange(len(data)), arr.shape[1]
     rows, lines, ncol, first = [], [], None, None
@@ -105,7 +138,7 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
     except UnicodeDecodeError:
         raise BrdflabError("not a text file (expected whitespace-separated numbers; binary data: use .npy)",
                            file=path) from None
-    fast = _read_text_fast(text, allowed)
+    fast = _read_text_fast(text, allowed, nonfinite_ok)
     if fast is not None:
         return fast
     for num, raw in enumerate(text.splitlines(), 1):
@@ -123,7 +156,7 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
         except ValueError:
             bad = next(t for t in tokens if not _is_float(t))
             raise BrdflabError(f"'{_short(bad)}' is not a number", file=path, line=num) from None
-        if not all(np.isfinite(vals)):
+        if not nonfinite_ok and not all(np.isfinite(vals)):
             raise BrdflabError("non-finite value (nan/inf)", file=path, line=num)
         rows.append(vals)
         lines.append(num)
@@ -132,7 +165,8 @@ def read_table(path: str | Path, allowed: tuple[int, ...], expected: str) -> tup
     return np.array(rows), np.array(lines), ncol
 
 
-def _read_text_fast(text: str, allowed: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, int] | None:
+def _read_text_fast(text: str, allowed: tuple[int, ...],
+                    nonfinite_ok: bool = False) -> tuple[np.ndarray, np.ndarray, int] | None:
     """NumPy's C parser for a well-formed text table (1 M rows in about a second, where the line-by-line
     reader takes ten); None for anything else — a malformed file goes through the line-by-line reader, which
     says where and what is wrong."""
@@ -153,7 +187,7 @@ def _read_text_fast(text: str, allowed: tuple[int, ...]) -> tuple[np.ndarray, np
             data = np.loadtxt(io.StringIO(text), comments="#", dtype=np.float64, ndmin=2)
     except (ValueError, TypeError, OverflowError):
         return None
-    if data.shape[0] != len(keep) or data.shape[1] not in allowed or not np.all(np.isfinite(data)):
+    if data.shape[0] != len(keep) or data.shape[1] not in allowed or not (nonfinite_ok or np.all(np.isfinite(data))):
         return None
     return data, np.asarray(keep), data.shape[1]
 
