@@ -88,3 +88,48 @@ def test_nan_weights_below_the_surface_are_a_named_finding(tmp_path, capsys):
     np.savetxt(tmp_path / "ok.txt", np.column_stack([wi, s.wo, s.pdf, w]), fmt="%.9g")
     assert main(["chi2", "--samples", str(tmp_path / "ok.txt"), "--against", "roughconductor", "--alpha", "0.3",
                  "--param", "R0=0.9", "-o", str(tmp_path / "r2")]) == 0
+
+
+# -- a hint never contradicts the evidence printed beside it -----------------------------------------------------
+def _conductor_file(tmp_path, name, alpha_sampled, alpha_column, n=30_000, seed=4):
+    import brdflab as bl
+
+    rng = np.random.default_rng(seed)
+    wi = np.tile([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))], (n, 1))
+    s = bl.RoughConductor(R0=0.9, alpha=alpha_sampled).sample(wi, rng.random((n, 3)))
+    col = bl.RoughConductor(R0=0.9, alpha=alpha_column).pdf(wi, s.wo)  # the column: brdflab's pdf at alpha_column
+    path = tmp_path / name
+    np.savetxt(path, np.column_stack([wi, s.wo, col]), fmt="%.9g")
+    return path
+
+
+def test_a_wrong_warp_beside_a_right_pdf_gets_no_pdf_hint(tmp_path):
+    """Sampled at α 0.2, the pdf column brdflab's at α 0.1: the column is right (equal to brdflab's pdf), so the
+    verdict is the distribution and no hint may say the pdf has a Jacobian too many."""
+    from brdflab.judges.samples.bsdf_checks import check_samples
+
+    res = check_samples(_conductor_file(tmp_path, "warp.txt", 0.2, 0.1), "roughconductor", alpha=0.1,
+                        params={"R0": 0.9})
+    text = "\n".join(res.messages())
+    assert not res.passed and "WRONG DISTRIBUTION" in text, text
+    assert "hint:" not in text and "Jacobian" not in text, text
+
+
+def test_a_self_consistency_false_alarm_is_settled_by_the_chi_square(tmp_path, monkeypatch):
+    """When the pdf column equals brdflab's and the directions pass brdflab's chi-square, a failing self-consistency
+    test alone (forced here) is no bug; without the rule the correct file read 'WRONG DISTRIBUTION … the sampling
+    routine (warp) is wrong'."""
+    from brdflab.judges.samples import bsdf_checks, selfconsistency
+
+    real = selfconsistency.self_consistency_test
+
+    def failing(*a, **k):
+        r = real(*a, **k)
+        r.p_value = r.threshold / 100  # rejected
+        return r
+
+    monkeypatch.setattr(bsdf_checks._sc, "self_consistency_test", failing)
+    res = bsdf_checks.check_samples(_conductor_file(tmp_path, "ok.txt", 0.1, 0.1), "roughconductor", alpha=0.1,
+                                    params={"R0": 0.9})
+    text = "\n".join(res.messages())
+    assert res.passed and "the chi-square decides" in text and "WRONG" not in text, text
