@@ -79,6 +79,7 @@ def sampler_of(result: c2.Chi2Result) -> Sampler | None:
                 w, p = (lambda u, a=a, w=w: w(u, a)), (lambda d, a=a, p=p: p(d, a))
             return Sampler(lambda u, w=w, p=p: (lambda d: (d, p(d)))(w(u[:, :2])), p, np.array([0.0, 0.0, 1.0]))
         theta = params.pop("theta", None)
+        phi = float(params.pop("phi", 0.0) or 0.0)
         alpha = params.pop("alpha", None)
         if theta is None:
             return None
@@ -91,7 +92,7 @@ def sampler_of(result: c2.Chi2Result) -> Sampler | None:
         bsdf = checked(bsdf)
     except (Exception, SystemExit):  # noqa: BLE001 - a result we cannot rebuild just gets no detailed view
         return None
-    wi1 = c2.incident(theta)
+    wi1 = c2.incident(theta, phi)
     axis = np.array([0.0, 0.0, 1.0]) if name in ("diffuse", "roughsubstrate/diffuse") else \
         np.array([-wi1[0], -wi1[1], wi1[2]])
 

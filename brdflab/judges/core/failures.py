@@ -50,7 +50,7 @@ def _points(points: list[tuple]) -> str:
 def _label(params: dict) -> str:
     """α and the other parameters of a test (not θ), e.g. 'α=0.1' or 'exponent=20'."""
     bits = [f"α={_fmt(params['alpha'])}"] if params.get("alpha") is not None else []
-    bits += [f"{k}={_fmt(v)}" for k, v in params.items() if k not in ("alpha", "theta") and v is not None]
+    bits += [f"{k}={_fmt(v)}" for k, v in params.items() if k not in ("alpha", "theta", "phi") and v is not None]
     return " ".join(bits)
 
 
@@ -67,9 +67,10 @@ def diagnose(result: c2.Chi2Result, n: int = 20_000, seed: int = 0, entry=None) 
 
     prm = dict(result.params or {})
     theta = prm.pop("theta", None)
+    phi = float(prm.pop("phi", 0.0) or 0.0)
     if theta is None:
         return ""
-    wi1 = c2.incident(float(theta))
+    wi1 = c2.incident(float(theta), phi)
     s = sampler_of(result) if entry is None else None
     if s is None and entry is not None:
         try:

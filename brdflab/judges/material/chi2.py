@@ -257,25 +257,31 @@ def chi2_test(
 
 
 # -- adapters for BSDFs and warps ----------------------------------------------------------------------
-def incident(theta_deg: float) -> np.ndarray:
-    """Unit incident direction at ``theta_deg`` from the normal, in the x–z plane."""
-    t = np.radians(theta_deg)
-    return np.array([np.sin(t), 0.0, np.cos(t)])
+def incident(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
+    """Unit incident direction at ``theta_deg`` from the normal and azimuth ``phi_deg`` (0: the x–z plane)."""
+    t, p = np.radians(theta_deg), np.radians(phi_deg)
+    return np.array([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
 
 
 def bsdf_test(name: str, bsdf, theta_deg: float, n: int, seed: int = 0, params: dict | None = None,
-              threshold: float = SIGNIFICANCE, axis: np.ndarray | None = None) -> Chi2Result:
+              threshold: float = SIGNIFICANCE, axis: np.ndarray | None = None,
+              phi_deg: float | None = None) -> Chi2Result:
     """Chi-square test of ``bsdf.sample`` against ``bsdf.pdf`` for incident angle ``theta_deg``.
 
     The BSDF is called through :class:`~brdflab.judges.core.guard.CheckedBSDF`: a contract violation gives a
     failed result naming the method, the parameters and the first offending directions. ``axis`` is unused
-    (the bins adapt to the lobe, see the module docstring).
+    (the bins adapt to the lobe, see the module docstring). ``phi_deg``: the incident azimuth (default: the
+    test's own, from its seed: :func:`~brdflab.judges.core.seeding.test_azimuth`); the result's ``params``
+    hold it as ``phi``.
     """
     from brdflab.judges.core.guard import CheckedBSDF, PluginFault
+    from brdflab.judges.core.seeding import test_azimuth
 
-    params = dict(params or {})
+    params = {k: v for k, v in (params or {}).items() if k != "phi"}
     checked_bsdf = CheckedBSDF(bsdf, name, {k: v for k, v in params.items() if k != "theta"})
-    wi1 = incident(theta_deg)
+    phi = test_azimuth(seed) if phi_deg is None else float(phi_deg)
+    params["phi"] = round(phi, 3)
+    wi1 = incident(theta_deg, params["phi"])
 
     def sample(u):
         wi = np.ascontiguousarray(np.broadcast_to(wi1, (len(u), 3)))

@@ -29,7 +29,7 @@ import numpy as np
 
 from brdflab.judges.core.guard import CheckedBSDF, PluginFault, describe, format_params
 from brdflab.judges.core.results import CaseList
-from brdflab.judges.core.seeding import bsdf_identity, test_seed
+from brdflab.judges.core.seeding import bsdf_identity, test_azimuth, test_seed
 from brdflab.judges.material.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
 
 #: Luminance weights (Rec. 709).
@@ -110,10 +110,10 @@ def _luminance(rgb: np.ndarray) -> np.ndarray:
 
 
 def albedo_quadrature_with_error(bsdf, theta_deg: float, seed: int = 0, pilot: int = 5_000,
-                                 shape: tuple[int, int] = (8, 16)) -> tuple[float, float]:
+                                 shape: tuple[int, int] = (8, 16), phi_deg: float = 0.0) -> tuple[float, float]:
     """ρ(θ_i) (luminance) by adaptive quadrature over pilot-placed bins, and its error estimate."""
     b = bsdf if isinstance(bsdf, CheckedBSDF) else CheckedBSDF(bsdf)
-    wi1 = incident(theta_deg)
+    wi1 = incident(theta_deg, phi_deg)
     s_pilot, s_mix = np.random.SeedSequence(seed).spawn(2)
     wi = np.ascontiguousarray(np.broadcast_to(wi1, (pilot, 3)))
     r = b.sample(wi, np.random.default_rng(s_pilot).random((pilot, 3)))
@@ -138,10 +138,11 @@ def albedo_quadrature(bsdf, theta_deg: float, alpha: float | None = None, seed: 
     return albedo_quadrature_with_error(bsdf, theta_deg, seed)[0]
 
 
-def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0) -> tuple[float, float]:
+def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0,
+                       phi_deg: float = 0.0) -> tuple[float, float]:
     """ρ(θ_i) as the mean sample weight (luminance) and its standard error."""
     rng = np.random.default_rng(seed)
-    wi = np.ascontiguousarray(np.broadcast_to(incident(theta_deg), (n, 3)))
+    wi = np.ascontiguousarray(np.broadcast_to(incident(theta_deg, phi_deg), (n, 3)))
     w = _luminance(bsdf.sample(wi, rng.random((n, 3))).weight)
     return float(w.mean()), float(w.std(ddof=1) / np.sqrt(n))
 
@@ -185,9 +186,10 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
         seed = test_seed("furnace", bsdf_identity(bsdf), params, float(theta))
     b = CheckedBSDF(bsdf, name, params)
     s_quad, s_mc = np.random.SeedSequence(seed).spawn(2)
+    phi = round(test_azimuth(seed), 3)  # the test's own azimuth: a sampler must rotate with ω_i
     try:
-        q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]))
-        m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]))
+        q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]), phi_deg=phi)
+        m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]), phi_deg=phi)
         p = AlbedoPoint(name, alpha, float(theta), q, m, se, qe, seed, params)
     except PluginFault as fault:
         p = AlbedoPoint(name, alpha, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), seed,
