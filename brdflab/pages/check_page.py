@@ -112,7 +112,6 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
         [(out / "user.png", "your render" + (f" (mean of {len(user)})" if len(user) > 1 else "")),
          (out / "brdflab.png", "brdflab's estimate"), (out / "block_map.png", "significant blocks")]))
     if attribution is not None:
-        from brdflab.stats.attribution import attribution_section
 
         body += html.section("Where and what", attribution_section(attribution))
     body += html.section("Block statistics", html.image_row([(out / "z_map.png", "signed block t-map")], cls="plot"))
@@ -126,3 +125,29 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
     path = out / "check.html"
     write_text(path, html.page(f"brdflab check — {scene.name}", body))
     return path
+
+
+def attribution_section(att: dict) -> str:
+    """HTML body of the check page's "Where and what" section: one row per region (whole image first)."""
+    from brdflab.stats.attribution import _fit_text
+
+    def row(label: str, r: dict) -> list[str]:
+        rel = "" if r.get("relative_difference") is None else f"{100 * r['relative_difference']:+.1f} %"
+        mats = "; ".join(f"{m['name']} {100 * m['share']:.0f} %"
+                         + ("" if m.get("relative_difference") is None else
+                            f" (difference {100 * m['relative_difference']:+.1f} %)") for m in r["materials"])
+        ems = ", ".join(f"{e['name']} {100 * e['share']:.0f} %" for e in r["emitters"])
+        return [label, rel, mats, ems, _fit_text(r["fit"]), r["finding"]]
+
+    rows = [row("whole image", att["whole_image"])]
+    for i, r in enumerate(att["regions"], 1):
+        rows.append(row(f"region {i}: {r['sign']}, {r['blocks']} blocks at x {r['x']}…{r['x'] + r['w']}, "
+                        f"y {r['y']}…{r['y'] + r['h']}", r))
+    intro = html.esc_p(
+        f"Auxiliary renders of the scene ({att['aux_spp']} spp): the material each pixel shows, the direct light of "
+        "each emitter, and brdflab's direct light split into its emitter-sampled part E and BSDF-sampled part B "
+        "(MIS-weighted halves of direct_mis). The difference d = yours − brdflab's (mean of R, G, B) is fitted as "
+        f"d ≈ a·E + b·B over cells of {att['cell']}×{att['cell']} pixels (HC3 standard errors); a coefficient is "
+        f"significant at p ≤ {att['level']}. Descriptive: not part of the verdict. See brdflab/stats/attribution.py.")
+    return intro + html.table(["where", "difference", "materials (pixel share)", "emitters (share of the light)",
+                               "fit", "finding"], rows)

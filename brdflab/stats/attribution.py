@@ -259,28 +259,72 @@ ALL_LIGHT = {
                   "radiance) or at a wrong MIS weight sum"}
 
 
+#: Integrators that produce only one of the two parts: whatever part a difference follows, its cause is there.
+ONE_STRATEGY = {"direct_ems": "E", "direct_mats": "B", "path": "B"}
+#: One coefficient "dominates" the other when the other is smaller than this share of it.
+DOMINANT = 0.2
+
+
+def _formula(fit: Fit) -> str:
+    return " ".join(f"{c:+.2f}(±{e:.2f})·{n}" for c, e, n in zip(fit.coef, fit.se, fit.names or ["E", "B"],
+                                                                  strict=False))
+
+
 def interpret(fit: Fit | None, sign: int, integrator: str = "", lit_share: float | None = None) -> str:
-    """One phrase: which part the difference (of ``sign`` −1 deficit, +1 excess) follows, if any (see module);
-    ``lit_share`` is the difference relative to brdflab's direct light E + B there."""
+    """One sentence: which part the difference (of ``sign`` −1 deficit, +1 excess) follows, what that points at,
+    and the fit it rests on (see module); ``lit_share`` is the difference relative to brdflab's direct light
+    E + B there. What the scene's integrator cannot produce is never named as the cause: a BSDF-only
+    integrator (``direct_mats``, ``path``) has no emitter-sampled part, an emitter-only one no BSDF-sampled part.
+    Both parts significant with opposite signs is the signature of MIS weights that do not add up to 1."""
     if fit is None:
         return "too few cells to fit"
     word = "deficit" if sign < 0 else "excess"
-    sa = fit.significant(0) and np.sign(fit.coef[0]) == sign
-    sb = fit.significant(1) and np.sign(fit.coef[1]) == sign
-    if sa and not fit.significant(1):
-        return f"the {word} follows {CAUSE['E']}"
-    if sb and not fit.significant(0):
-        return f"the {word} follows {CAUSE['B']}"
+    a, b = fit.coef[0], fit.coef[1]
+    sig_a, sig_b = fit.significant(0), fit.significant(1)
+    sa, sb = sig_a and np.sign(a) == sign, sig_b and np.sign(b) == sign
+    formula = f" (d ≈ {_formula(fit)})"
+    if sig_a and sig_b and np.sign(a) != np.sign(b):
+        short, more = ("emitter-sampled", "BSDF-sampled") if a < 0 else ("BSDF-sampled", "emitter-sampled")
+        return (f"{short} light is short ({100 * min(a, b):+.0f} % of it) while {more} light is in excess "
+                f"({100 * max(a, b):+.0f} %){formula}: the two strategies' weights do not add up to 1 — look at the "
+                "MIS weights (both densities in solid angle, the emitter-selection probability included in p_light)")
+    only = ONE_STRATEGY.get(integrator.split(":")[0])
+    if only and (sa or sb):
+        size = "" if lit_share is None else f", {100 * lit_share:+.0f} % of it"
+        cause = ALL_LIGHT[integrator.split(":")[0]] if integrator.split(":")[0] in ALL_LIGHT else \
+            f"the scene's {integrator} samples only BSDFs: this points at BSDF sampling (weight, pdf) or the " \
+            "emission found by BSDF rays"
+        return f"the {word} follows direct light{size}{formula}: {cause}"
+    lo, hi = sorted((abs(a), abs(b)))
+    if sa and (not sig_b or (sb and abs(b) < DOMINANT * abs(a))):
+        return f"the {word} follows {CAUSE['E']}{formula}"
+    if sb and (not sig_a or (sa and abs(a) < DOMINANT * abs(b))):
+        return f"the {word} follows {CAUSE['B']}{formula}"
     if sa and sb:
-        a, b = fit.coef[0], fit.coef[1]
-        lo, hi = sorted((abs(a), abs(b)))
         if hi > 0 and lo / hi > 0.5:
             hint = ALL_LIGHT.get(integrator.split(":")[0], "")
             size = "" if lit_share is None else f" ({100 * lit_share:+.0f} % of it)"
-            return (f"the {word} follows all direct light{size}"
+            return (f"the {word} follows all direct light{size}{formula}"
                     + (f": {hint}" if hint else ""))
-        return f"the {word} follows both parts unequally: nothing definite"
+        return f"the {word} follows both parts unequally{formula}: nothing definite"
     return "nothing definite (neither part, or both with opposite signs)"
+
+
+def offset_finding(d: np.ndarray, aux: AuxImages, mask: np.ndarray, sign: int, cell: int = CELL) -> str:
+    """A constant offset: d ≈ c + a·E + b·B over every pixel of ``mask`` that is not an emitter seen directly
+    (misses and unlit surfaces included, where E = B = 0). A significant c with neither part significant — the
+    same difference lit or dark — is a constant added to every pixel (radiance initialised to ε, an ambient
+    term), which no light-transport cause explains. "" when there is none."""
+    keep = mask & (aux.material >= -1)
+    fit = fit_cells(d, [aux.emitter_part, aux.bsdf_part, np.ones(d.shape)], ["E", "B", "1"], keep, cell)
+    if fit is None or not fit.significant(2) or np.sign(fit.coef[2]) != sign or fit.significant(0) \
+            or fit.significant(1):
+        return ""
+    dark = keep & (aux.emitter_part + aux.bsdf_part <= 0)
+    where = f", in unlit pixels too ({int(dark.sum())} of them)" if dark.any() else ""
+    return (f"a constant {'excess' if sign > 0 else 'deficit'} of {fit.coef[2]:+.3g} (±{fit.se[2]:.1g}) per pixel"
+            f"{where}, unrelated to the light (d ≈ {_formula(fit)}): the radiance starts from a nonzero value or "
+            "a constant is added to every sample")
 
 
 def _shares(labels: list[str], values: np.ndarray, top: int = 4) -> list[dict]:
@@ -320,11 +364,12 @@ def describe_region(mask: np.ndarray, d: np.ndarray, y: np.ndarray, aux: AuxImag
     ys = float(y[mask].sum())
     direct = float(aux.emitter_part[lit].sum() + aux.bsdf_part[lit].sum())
     lit_share = float(d[lit].sum()) / direct if direct > 0 else None
+    offset = offset_finding(d, aux, mask, sign, cell)
     out = {"pixels": int(mask.sum()), "relative_difference": float(d[mask].sum()) / ys if ys > 0 else None,
            "materials": mats[:4], "emitters": ems,
            "emitter_part_share": _part_share(aux, lit),
            "cell": cell, "fit": None if fit is None else fit.to_dict(),
-           "finding": interpret(fit, sign, integrator, lit_share),
+           "finding": offset or interpret(fit, sign, integrator, lit_share),
            "relative_to_direct_light": lit_share}
     if len(aux.emitter_ids) >= 2:
         names = [aux.emitter_labels[e] for e in aux.emitter_ids]
@@ -431,29 +476,3 @@ def attribute_check(result, user: list[np.ndarray], scene_path: Path, integrator
     h, w = result.estimate.shape[:2]
     aux = render_aux(scene_path, spp, seed, (w, h), workers, progress)
     return attribute(result, user, aux, integrator)
-
-
-def attribution_section(att: dict) -> str:
-    """HTML body of the check page's "Where and what" section: one row per region (whole image first)."""
-    from brdflab.pages import page as html
-
-    def row(label: str, r: dict) -> list[str]:
-        rel = "" if r.get("relative_difference") is None else f"{100 * r['relative_difference']:+.1f} %"
-        mats = "; ".join(f"{m['name']} {100 * m['share']:.0f} %"
-                         + ("" if m.get("relative_difference") is None else
-                            f" (difference {100 * m['relative_difference']:+.1f} %)") for m in r["materials"])
-        ems = ", ".join(f"{e['name']} {100 * e['share']:.0f} %" for e in r["emitters"])
-        return [label, rel, mats, ems, _fit_text(r["fit"]), r["finding"]]
-
-    rows = [row("whole image", att["whole_image"])]
-    for i, r in enumerate(att["regions"], 1):
-        rows.append(row(f"region {i}: {r['sign']}, {r['blocks']} blocks at x {r['x']}…{r['x'] + r['w']}, "
-                        f"y {r['y']}…{r['y'] + r['h']}", r))
-    intro = html.esc_p(
-        f"Auxiliary renders of the scene ({att['aux_spp']} spp): the material each pixel shows, the direct light of "
-        "each emitter, and brdflab's direct light split into its emitter-sampled part E and BSDF-sampled part B "
-        "(MIS-weighted halves of direct_mis). The difference d = yours − brdflab's (mean of R, G, B) is fitted as "
-        f"d ≈ a·E + b·B over cells of {att['cell']}×{att['cell']} pixels (HC3 standard errors); a coefficient is "
-        f"significant at p ≤ {att['level']}. Descriptive: not part of the verdict. See brdflab/stats/attribution.py.")
-    return intro + html.table(["where", "difference", "materials (pixel share)", "emitters (share of the light)",
-                               "fit", "finding"], rows)
