@@ -8,6 +8,10 @@ those K runs). Every integrator is unbiased, so every rejection at the per-test 
 rate comes with its exact (Clopper–Pearson) 95 % interval. The old rule (the spread of the K run biases with
 Welch–Satterthwaite df) is computed beside it on the same runs.
 
+The "faster" verdict (a speed-up stated when its 95 % interval excludes 1) is measured the same way: two disjoint
+groups of K runs of the *same* integrator (each integrator's pool in turn) are compared as if they were two
+estimators; any stated speed-up is a false one (nominal rate 5 %, two-sided).
+
     python benchmarks/bias_false_alarms.py ../shared/scenes/assignment-3/cbox/cbox_conductors_ems.xml \\
         --resolution 200x150 --pool 48 --k 2,3,4,8
 """
@@ -26,7 +30,7 @@ from scipy import stats
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from brdflab.pages import variance as V  # noqa: E402
-from brdflab.stats.intervals import welch_df  # noqa: E402
+from brdflab.stats.intervals import log_ratio_interval, welch_df  # noqa: E402
 from brdflab.stats.jobs import RenderJob, run_seed  # noqa: E402
 
 
@@ -97,6 +101,20 @@ def main() -> None:
             print(f"  K = {k}: {n} tests; within-run rule {new} alarms = {100 * new / n:.1f} % "
                   f"(95 % CI {100 * lo:.1f}–{100 * hi:.1f} %); old spread rule {old} = {100 * old / n:.1f} % "
                   f"({100 * olo:.1f}–{100 * ohi:.1f} %)")
+            fast = m = 0
+            for cps in runs.values():
+                for g in range(len(cps) // (2 * k)):
+                    a_runs, b_runs = cps[2 * g * k:(2 * g + 1) * k], cps[(2 * g + 1) * k:(2 * g + 2) * k]
+                    for s in spp:
+                        prod = [[c.relmse * c.seconds for c in (next(c for c in r if c.spp == s) for r in grp)]
+                                for grp in (a_runs, b_runs)]
+                        _, low, high = log_ratio_interval(prod[1], prod[0], 0.95)
+                        fast += bool(np.isfinite(low) and (low > 1 or high < 1))
+                        m += 1
+            if m:
+                flo, fhi = clopper_pearson(fast, m)
+                print(f"         'faster' between two groups of one integrator: {fast} of {m} = {100 * fast / m:.1f} % "
+                      f"(95 % CI {100 * flo:.1f}–{100 * fhi:.1f} %; nominal 5 %)")
 
 
 if __name__ == "__main__":

@@ -133,3 +133,49 @@ def test_a_self_consistency_false_alarm_is_settled_by_the_chi_square(tmp_path, m
                                     params={"R0": 0.9})
     text = "\n".join(res.messages())
     assert res.passed and "the chi-square decides" in text and "WRONG" not in text, text
+
+
+# -- two bugs at once: the weight's own bug is named beside the pdf's -------------------------------------------
+def _fresnel_bug_file(tmp_path, name, jacobian_bug):
+    import brdflab as bl
+    from brdflab.bsdf.fresnel import fresnel_schlick
+    from brdflab.bsdf.microfacet import half_vector
+
+    rng = np.random.default_rng(12)
+    b = bl.RoughConductor(R0=0.1, alpha=0.3)
+    n, wi1 = 40_000, np.array([np.sin(np.radians(75)), 0.0, np.cos(np.radians(75))])
+    wi = np.tile(wi1, (n, 1))
+    s = b.sample(wi, rng.random((n, 3)))
+    ok = (s.pdf > 0) & (s.wo[:, 2] > 0)
+    wh, _ = half_vector(wi, s.wo)
+    hi = np.abs(np.sum(wi * wh, axis=1))
+    f = b.eval(wi, s.wo) * fresnel_schlick(np.full(n, wi1[2]), [0.1] * 3) / fresnel_schlick(hi, [0.1] * 3)
+    pdf = s.pdf * (4 * np.abs(np.sum(s.wo * wh, axis=1)) if jacobian_bug else 1.0)
+    w = np.where(ok[:, None], f * (s.wo[:, 2] / np.where(pdf > 0, pdf, 1.0))[:, None], 0.0)
+    path = tmp_path / name
+    np.savetxt(path, np.column_stack([wi, s.wo, np.where(ok, pdf, 0.0), w]), fmt="%.9g")
+    return path
+
+
+def test_fresnel_at_the_wrong_cosine_is_named_with_and_without_the_pdf_bug(tmp_path):
+    """Issue 40's student case: Fresnel evaluated at n·ωi and the half vector's Jacobian missing from the pdf:
+    the weight hint named only the pdf bug, and after the pdf fix the weight failed with no hint."""
+    from brdflab.judges.samples.bsdf_checks import check_samples
+
+    both = "\n".join(check_samples(_fresnel_bug_file(tmp_path, "both.txt", True), "roughconductor", alpha=0.3,
+                                   params={"R0": 0.1}).messages())
+    assert "Fresnel term uses cos θi" in both and "Jacobian" in both, both
+    after = check_samples(_fresnel_bug_file(tmp_path, "fresnel.txt", False), "roughconductor", alpha=0.3,
+                          params={"R0": 0.1})
+    text = "\n".join(after.messages())
+    assert not after.passed and "WRONG WEIGHT" in text and "Fresnel term uses cos θi" in text, text
+
+
+def test_an_unexplained_weight_residual_is_said(tmp_path):
+    from brdflab.judges.samples.bsdf_hints import weight_hint
+
+    rng = np.random.default_rng(2)
+    wo = np.column_stack([rng.normal(size=(500, 2)) * 0.3, np.ones(500)])
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    ratio = 1.0 + 0.5 * np.sin(7 * wo[:, 0])  # no usual bug looks like this
+    assert weight_hint(ratio, np.array([0.0, 0.0, 1.0]), wo, None).startswith("unexplained")

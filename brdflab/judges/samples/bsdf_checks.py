@@ -353,7 +353,8 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
                 if s.pdf is not None and p_true is not None and not np.allclose(p_true, s.pdf[idx][cmp], rtol=1e-3):
                     fix = p_true / np.where(s.pdf[idx][cmp] > 0, s.pdf[idx][cmp], np.nan)
             g.weight = _column_check("weight", fw, ow, lines[cmp], wo_n[cmp],
-                                     hints.weight_hint(ratio, wi1, wo_n[cmp], fix))
+                                     hints.weight_hint(ratio, wi1, wo_n[cmp], fix,
+                                                       model_bugs=hints.microfacet_weight_bugs(ref, wi1, wo_n[cmp])))
             if not g.weight.passed and fit is not None:
                 make_p, defaults, given = fit
                 g.warnings = g.warnings or hints.fit_defaults(make_p, defaults, given, wi1, wo_n[cmp], p_w, fw)

@@ -161,15 +161,42 @@ def _lobe_identity(column: np.ndarray, lobes, wi1: np.ndarray, wo: np.ndarray) -
     return min(out)
 
 
+def microfacet_weight_bugs(bsdf, wi1: np.ndarray, wo: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """The usual bugs of a microfacet conductor's f, as factors f_bug / f at each ω_o (luminance): Fresnel at
+    n·ω_i instead of ω_h·ω_i, a missing G1(ω_o) or G1(ω_i), G1(ω_i) twice. Empty for other BSDFs (their f has
+    no such terms, or they are not brdflab's conductor)."""
+    from brdflab.bsdf.fresnel import fresnel_schlick
+    from brdflab.bsdf.microfacet import half_vector, smith_g1
+    from brdflab.bsdf.roughconductor import RoughConductor
+
+    if type(bsdf) is not RoughConductor or not (bsdf.R0.constant and bsdf.alpha.constant):
+        return []
+    a, r0 = float(bsdf.alpha.luminance()), np.broadcast_to(np.asarray(bsdf.R0.mean(), dtype=np.float64), (3,))
+    wi = np.ascontiguousarray(np.broadcast_to(wi1, (len(wo), 3)))
+    wh, _ = half_vector(wi, wo)
+    hi = np.abs(np.sum(wi * wh, axis=1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fres = (fresnel_schlick(np.full(len(wo), wi1[2]), r0) @ LUMINANCE) / (fresnel_schlick(hi, r0) @ LUMINANCE)
+        g_o, g_i = smith_g1(wo, wh, a), smith_g1(wi, wh, a)
+        return [("the Fresnel term uses cos θi (n·ωi) instead of ωh·ωi", fres),
+                ("a G1(ωo) factor is missing", 1.0 / g_o), ("a G1(ωi) factor is missing", 1.0 / g_i),
+                ("G1(ωi) appears twice", g_i)]
+
+
 def weight_hint(ratio: np.ndarray, wi1: np.ndarray, wo: np.ndarray, pdf_fix: np.ndarray | None,
-                pdf_text: str = "") -> str:
+                pdf_text: str = "", model_bugs: list[tuple[str, np.ndarray]] | None = None) -> str:
     """Name the weight bug(s) from w_file / (f·cos/p) — one weight bug and one pdf bug, jointly.
 
-    ``pdf_fix`` is p_true / p_file when the pdf column is wrong and the true density is known (else None).
+    ``pdf_fix`` is p_true / p_file when the pdf column is wrong and the true density is known (else None);
+    ``model_bugs`` adds the usual bugs of the BSDF's own terms (:func:`microfacet_weight_bugs`), tried alone and
+    with the cosine bugs and the pdf bug (two bugs at once must not hide one). When no combination explains
+    the ratio, the hint says so instead of staying silent.
     """
     cos_o = np.maximum(wo[:, 2], 1e-12)
     wbugs = [("", np.ones(len(wo))), ("the weight uses cos θi instead of cos θo", wi1[2] / cos_o),
              ("the weight lacks the cos θo factor", 1 / cos_o), ("the weight has cos θo twice", cos_o)]
+    for mt, mf in model_bugs or []:
+        wbugs += [(mt if not t else f"{mt} and {t}", mf * f) for t, f in wbugs[:4]]
     pbugs = [("", None)]
     if pdf_fix is not None:
         pbugs += [("the weight is f·cos/pdf with the file's wrong pdf column", pdf_fix)]
@@ -186,6 +213,11 @@ def weight_hint(ratio: np.ndarray, wi1: np.ndarray, wo: np.ndarray, pdf_fix: np.
         if np.median(np.abs(ratio[ok] / med - 1)) < 1e-3 and abs(med - 1) > 1e-2:
             return f"the weights are the expected ones times a constant {med:.6g} (a parameter left at its default, " \
                    "or a missing factor?)"
+        if np.median(np.abs(ratio[ok] - 1)) > 1e-3:
+            q = np.percentile(ratio[ok], [10, 50, 90])
+            return (f"unexplained: weight / (f·cos θo/p) varies ({q[0]:.3g} … {q[1]:.3g} … {q[2]:.3g}, 10/50/90 %) "
+                    "and none of the usual bugs (cosines, Fresnel's cosine, G1 factors, the pdf) fits it alone or in "
+                    "pairs: compare f itself with the model's formula")
     return ""
 
 
