@@ -9,7 +9,7 @@ Run from the repository root (CPU-heavy: a bounded, reproducible sample of the m
 
 Scope: ``brdflab/bsdf``, ``brdflab/emitter``, ``brdflab/integrator`` and ``brdflab/math/warps.py``; with
 ``--scope PATH`` (repeatable) another package or file, judged by its own selection (:data:`SELECTIONS`:
-``brdflab/stats``, ``brdflab/validate``, ``brdflab/plugins.py``, ``brdflab/scene``, ``brdflab/film.py``) or by
+``brdflab/stats``, ``brdflab/judges``, ``brdflab/plugins.py``, ``brdflab/scene``, ``brdflab/film.py``) or by
 ``--tests``.
 
 Why a small AST mutator of our own instead of ``mutmut``/``cosmic-ray``: mutmut 3 mutates only inside
@@ -78,7 +78,7 @@ DESELECT: list[str] = []
 SELECTIONS: dict[str, list[str]] = {
     "brdflab/stats": ["tests/test_check_calibration.py", "tests/test_intervals_by_hand.py", "tests/test_check.py",
                       "tests/test_report_runs.py"],
-    "brdflab/validate": ["tests/test_chi2_machinery.py", "tests/test_agreement_by_hand.py",
+    "brdflab/judges": ["tests/test_chi2_machinery.py", "tests/test_agreement_by_hand.py",
                          "tests/test_external_reader_2.py", "tests/test_open_checks.py", "tests/test_validate.py",
                          "tests/test_validate_light.py", "tests/test_chi2_pages.py",
                          "tests/test_light_paths.py::test_estimators_agree",
@@ -91,6 +91,14 @@ SELECTIONS: dict[str, list[str]] = {
                       "tests/test_render.py", "tests/test_light_paths.py::test_estimators_match_closed_forms",
                       "tests/test_light_paths.py::test_light_facing_by_vertex_normals",
                       "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
+    # Issue 40's packages: each with its second line of defence beside the first.
+    "brdflab/kernels": ["tests/test_kernels.py", "tests/test_kernels_glue.py", "tests/test_zero_channels.py",
+                        "tests/test_light_paths.py::test_estimators_match_closed_forms",
+                        "tests/test_light_paths.py::test_point_light_under_mis_is_the_closed_form",
+                        "tests/test_render.py"],
+    "brdflab/bsdf/measured.py": ["tests/test_measured.py", "tests/test_azimuth.py"],
+    "brdflab/fitting.py": ["tests/test_measured.py", "tests/test_hostile_4.py"],
+    "brdflab/stats/attribution.py": ["tests/test_attribution_2.py", "tests/test_attribution.py"],
     "brdflab/film.py": ["tests/test_film_merge.py", "tests/test_camera_film.py", "tests/test_texture_camera_2.py",
                         "tests/test_render_paths_2.py",
                         "tests/test_render.py",
