@@ -9,8 +9,9 @@ rate comes with its exact (Clopper–Pearson) 95 % interval. The old rule (the s
 Welch–Satterthwaite df) is computed beside it on the same runs.
 
 The "faster" verdict (a speed-up stated when its 95 % interval excludes 1) is measured the same way: two disjoint
-groups of K runs of the *same* integrator (each integrator's pool in turn) are compared as if they were two
-estimators; any stated speed-up is a false one (nominal rate 5 %, two-sided).
+groups of K runs of the *same* integrator (consecutive runs dealt alternately, as the report interleaves its
+integrators' runs) are compared as if they were two estimators; any stated speed-up is a false one (nominal rate
+5 %, two-sided).
 
     python benchmarks/bias_false_alarms.py ../shared/scenes/assignment-3/cbox/cbox_conductors_ems.xml \\
         --resolution 200x150 --pool 48 --k 2,3,4,8
@@ -36,10 +37,9 @@ from brdflab.stats.jobs import RenderJob, run_seed  # noqa: E402
 
 def pool_runs(scene: Path, integrators: list[str], spp: list[int], pool: int, resolution, seed: int):
     ref, _, ref_var, secs = V.make_reference(scene, 4 * max(spp), V.REF_RUNS, seed, resolution, 1)
-    runs = {}
-    for i, name in enumerate(integrators):
-        runs[name] = []
-        for k in range(pool):
+    runs = {name: [] for name in integrators}
+    for k in range(pool):  # run-major, as the report orders its jobs: a load drift slows every integrator alike
+        for i, name in enumerate(integrators):
             job = RenderJob(scene, name, max(spp), run_seed(seed + 1, 10000 * i + k, "report"), resolution, 1)
             runs[name].append(V.measure_run(job, ref, tuple(spp), k).checkpoints)
     return runs, ref_var
@@ -104,7 +104,8 @@ def main() -> None:
             fast = m = 0
             for cps in runs.values():
                 for g in range(len(cps) // (2 * k)):
-                    a_runs, b_runs = cps[2 * g * k:(2 * g + 1) * k], cps[(2 * g + 1) * k:(2 * g + 2) * k]
+                    block = cps[2 * g * k:(2 * g + 2) * k]  # consecutive runs, dealt alternately (as interleaved)
+                    a_runs, b_runs = block[0::2], block[1::2]
                     for s in spp:
                         prod = [[c.relmse * c.seconds for c in (next(c for c in r if c.spp == s) for r in grp)]
                                 for grp in (a_runs, b_runs)]

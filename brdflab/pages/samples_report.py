@@ -126,7 +126,7 @@ def write_samples_report(res, out: Path) -> Path:
                      "integral": f"{g.chi2.integral:.4f}" if g.chi2 is not None else "",
                      "cls": cls, "text": text, "detail": anchor, "thumb": _thumb(g)})
     page = render("validation.html.j2", title=f"brdflab chi-square: {Path(res.path).name} against {res.against}",
-                  summary=summary, negative=[], negative_what="", failures=failures, details=details,
+                  summary=summary, negative=[], negative_what="", failures=failures, causes=failures, details=details,
                   views_note=__doc__.split("\n\n", 1)[1].replace("\n", " "), rows=rows, consistency=[], albedo=None,
                   stability=None, light=None)
     path = out / "index.html"

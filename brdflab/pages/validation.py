@@ -92,12 +92,15 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
     ``view_samples``: samples drawn for each detailed (φ′, cos θ′) view (:mod:`brdflab.pages.chi2_views`);
     by default as many as the test itself counted, between 20 000 and 200 000.
     """
+    from brdflab.judges.core.failures import grouped_failures
     from brdflab.pages.jinja import render
     from brdflab.viz.figures import save
 
     out.mkdir(parents=True, exist_ok=True)
     failures = bat.failures()
-    summary = (f"{len(bat.chi2)} chi-square tests at family-wise significance 0.01 (Šidák: per-test threshold "
+    causes = grouped_failures(bat) if failures else []  # the terminal's lines, first on the page
+    tests = f"{len(bat.chi2)} chi-square test{'' if len(bat.chi2) == 1 else 's'}"
+    summary = (f"{tests} at family-wise significance 0.01 (Šidák: per-test threshold "
                f"{bat.threshold:.3g}); minimum p-value "
                f"{min((r.p_value for r in bat.chi2), default=float('nan')):.3g}.")
     negative = []
@@ -161,8 +164,8 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
 
     page = render("validation.html.j2", title=title, summary=summary, negative=negative,
                   negative_what="the conductor's pdf without the 1/(4|ω_o·ω_h|) Jacobian, which the test must reject",
-                  failures=failures, details=details, views_note=VIEWS_NOTE, rows=rows, consistency=consistency,
-                  albedo=albedo, stability=stab, light=_light_transport(bat))
+                  failures=failures, causes=causes, details=details, views_note=VIEWS_NOTE, rows=rows,
+                  consistency=consistency, albedo=albedo, stability=stab, light=_light_transport(bat))
     path = out / "index.html"
     write_text(path, page)
     return path

@@ -219,12 +219,14 @@ def measure_run(job, ref: np.ndarray, figure_spp: tuple[int, ...], run: int, fli
 def study_jobs(scene_path: Path, integrators: list[str], max_spp: int, runs: int, seed: int,
                resolution: tuple[int, int] | None = None, workers: int | None = None) -> list[tuple[int, object]]:
     """The (run index, :class:`~brdflab.stats.jobs.RenderJob`) list of a study: every integrator × run has
-    its own seed (integrator i, run k: stream ``run_seed(seed, 10000 i + k, "report")``)."""
+    its own seed (integrator i, run k: stream ``run_seed(seed, 10000 i + k, "report")``). Run-major order (run 0
+    of every integrator, then run 1, …): a change of the machine's load during the study then slows every
+    integrator alike instead of making the ones run later look slower (a false "faster" in the time ratios)."""
     from brdflab.stats.jobs import RenderJob, run_seed
 
     return [(k, RenderJob(Path(scene_path), name, max_spp, run_seed(seed, 10000 * i + k, "report"), resolution,
                           workers))
-            for i, name in enumerate(integrators) for k in range(runs)]
+            for k in range(runs) for i, name in enumerate(integrators)]
 
 
 def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=None, workers=None,
