@@ -223,7 +223,12 @@ def _load_module(modname: str, clsname: str, text: str, base: str | Path | None)
     if clsname:
         cls = getattr(module, clsname, None)
         if not isinstance(cls, type):
-            raise BrdflabError(f"plugin '{_short(text)}': module '{_short(modname)}' has no class '{_short(clsname)}'")
+            defined = [c.__name__ for c in vars(module).values()
+                       if isinstance(c, type) and issubclass(c, BSDF) and c.__module__ == module.__name__]
+            there = f"; defined there: {', '.join(_short(n) for n in defined[:6])}" if defined else \
+                "; it defines no brdflab.BSDF subclass"
+            raise BrdflabError(f"plugin '{_short(text)}': module '{_short(modname)}' has no class '{_short(clsname)}'"
+                               + there)
         classes = [cls]
     else:
         classes = [c for c in vars(module).values()

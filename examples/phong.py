@@ -19,7 +19,9 @@ frame of m (Duff et al. 2017, "Building an orthonormal basis, revisited", listin
 the surface keep their density and get weight 0. The weight is f cos θ_o / p = k_s (n + 2)/(n + 1) cos θ_o,
 so ρ(0) = k_s exactly.
 
-Load it with ``--plugin examples/phong.py``; it declares a sweep over the exponent for the battery. Its
+Load it with ``--plugin examples/phong.py`` (a plugin file's BSDF classes are registered when it is loaded; from
+Python, ``bl.load_plugin("examples/phong.py")`` does the same, or import the class and call
+``bl.register_bsdf(Phong)`` as the tutorial does); it declares a sweep over the exponent for the battery. Its
 twin ``phong_broken`` has a warp bug (the lobe is sampled about the normal instead of the mirror direction,
 the pdf left right): the chi-square test must reject it for every θ_i > 0.
 """

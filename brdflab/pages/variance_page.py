@@ -214,7 +214,9 @@ def write_report(study: Study, out: Path) -> Path:
     untested = untested_for_bias(study)
     rows = [[r.integrator, r.spp, r.runs, f"{r.seconds:.3g}", f"{r.relmse:.4g}", _fmt_ci(r.relmse_ci, fmt=".3g"),
              f"{r.mse:.4g}", f"{r.mape:.4g}", "" if r.flip is None else f"{r.flip:.4f}",
-             f"{100 * r.bias:+.3f} %", _fmt_ci(r.bias_ci, 100, "+.2f") + " %",
+             f"{100 * r.bias:+.3f} %",
+             _fmt_ci(r.bias_ci, 100, "+.2f", unit=" %",
+                     why="the reference's own estimator" if r.integrator == study.reference_integrator else "one run"),
              "—" if not np.isfinite(r.bias_p) else f"{r.bias_p:.2g}",
              "biased" if r.bias_significant else ("not tested: the reference is this estimator"
                                                   if r.integrator in untested else ""),

@@ -22,11 +22,12 @@ from brdflab.pages.variance import (
 
 
 # -- statements -----------------------------------------------------------------------------------------
-def _fmt_ci(ci, scale: float = 1.0, fmt: str = ".3g") -> str:
+def _fmt_ci(ci, scale: float = 1.0, fmt: str = ".3g", why: str = "one run", unit: str = "") -> str:
+    """``lo … hi`` (times ``scale``, with ``unit``), or why there is no interval."""
     lo, hi = ci
     if not (np.isfinite(lo) and np.isfinite(hi)):
-        return "no interval (one run)"
-    return f"{format(scale * lo, fmt)} … {format(scale * hi, fmt)}"
+        return f"no interval ({why})"
+    return f"{format(scale * lo, fmt)} … {format(scale * hi, fmt)}{unit}"
 
 
 def products(study: Study, name: str, spp: int) -> np.ndarray:

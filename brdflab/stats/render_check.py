@@ -151,7 +151,8 @@ class CheckResult:
         """One line: consistent/biased, p-value, mean bias with its 99 % interval, block counts."""
         word = "consistent" if self.consistent else "BIASED"
         lo, hi = self.bias_ci
-        s = (f"{word}: p = {self.p_value:.3g}; image mean {100 * self.bias:+.2f} % "
+        p = "p > 0.99" if self.p_value > 0.99 else f"p = {self.p_value:.3g}"  # a Holm-adjusted p caps at 1
+        s = (f"{word}: {p}; image mean {100 * self.bias:+.2f} % "
              f"(99 % CI {100 * lo:+.2f} … {100 * hi:+.2f} %)")
         if self.dark_blocks or self.bright_blocks:
             s += f"; {self.dark_blocks} blocks too dark, {self.bright_blocks} too bright of {self.blocks}"

@@ -90,7 +90,8 @@ class Battery:
         out += [f"negative control {r.name} {r.params} was NOT rejected (p = {r.p_value:.3g})"
                 for r in self.negative_control if r.passed]
         out += [r.message or f"consistency {r.name} θ={r.theta}: {r}" for r in self.consistency if not r.passed]
-        out += [p.message or f"albedo {p.name} α={p.alpha} θ={p.theta}: quad {p.quadrature:.4f} MC {p.monte_carlo:.4f}"
+        out += [p.message or f"albedo {p.name}{'' if p.alpha is None else f' α={p.alpha:g}'} θ={p.theta}: quad "
+                f"{p.quadrature:.4f} MC {p.monte_carlo:.4f}"
                 for p in self.albedo if not p.passed]
         out += [r.message for r in self.stability if not r.passed]
         out += [f"emitter chi2 {r.name}: p = {r.p_value:.3g} ≤ {r.threshold:.2g}" for r in self.emitter_chi2
@@ -363,7 +364,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         worst = min(finite, key=lambda p: p.quadrature)
         progress(f"{'PASS' if all(p.passed for p in bat.albedo) else 'FAIL'}  furnace: {len(bat.albedo)} albedo "
                  f"points, max ρ {max(p.quadrature for p in finite):.4f}, min ρ {worst.quadrature:.4f} "
-                 f"({worst.name}, α={worst.alpha}, θ={worst.theta:g})")
+                 f"({worst.name}{'' if worst.alpha is None else f', α={worst.alpha:g}'}, θ={worst.theta:g})")
         bad = [p for p in bat.albedo if not p.passed]
         if bad:  # the points themselves are listed once, grouped, by brdflab.judges.core.failures
             progress(f"      {len(bad)} failing albedo points (first: {bad[0].message})")
