@@ -25,15 +25,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from brdflab.bench import CASES, COURSE_CASES, mesh1m_scene, mesh_scene  # noqa: E402
+from brdflab.benchmarking import CASES, COURSE_CASES, mesh1m_scene, mesh_scene  # noqa: E402
 
 #: (n_theta, n_phi) of the tessellated spheres: about 2·n_theta·n_phi triangles.
 SIZES = [(50, 100), (87, 174), (158, 316), (274, 548), (500, 1004)]
 
 
 def measure(scene: Path, integrator: str, spp: int, runs: int, workers: int, case: str) -> dict:
-    """Run ``brdflab.bench --one`` in a fresh process; return its record with medians."""
-    cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integrator, str(spp), str(runs),
+    """Run ``brdflab.benchmarking --one`` in a fresh process; return its record with medians."""
+    cmd = [sys.executable, "-m", "brdflab.benchmarking", "--one", str(scene), integrator, str(spp), str(runs),
            str(workers), case]
     out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True)
     rec = json.loads(out.stdout.strip().splitlines()[-1])

@@ -8,7 +8,7 @@ Usage (with brdflab's own environment active)::
 * Mitsuba is installed from PyPI into its own venv, ``benchmarks/.venv-mitsuba`` (created on first use).
 * ``llvm_ad_rgb`` needs an LLVM shared library (Debian: ``apt-get install libllvm19``); the script looks
   for ``libLLVM*.so*`` and passes it as ``DRJIT_LIBLLVM_PATH``. Without one, that variant is skipped.
-* Each (case, integrator) is rendered by brdflab (``python -m brdflab.bench --one``, a fresh process) and
+* Each (case, integrator) is rendered by brdflab (``python -m brdflab.benchmarking --one``, a fresh process) and
   by Mitsuba (``benchmarks/mitsuba/run_mitsuba.py``, a fresh process per variant) in every round; the
   order alternates between rounds so that drift in machine load affects both. Only the render is timed
   (no scene loading, BVH build or JIT compilation). Both use every core.
@@ -47,7 +47,7 @@ sys.path.insert(0, str(HERE / "mitsuba"))
 
 from translate import translate  # noqa: E402
 
-from brdflab.bench import CASES, case_scene, whole_process_seconds  # noqa: E402
+from brdflab.benchmarking import CASES, case_scene, whole_process_seconds  # noqa: E402
 
 VENV = HERE / ".venv-mitsuba"
 MITSUBA_PY = VENV / "bin" / "python"
@@ -93,7 +93,7 @@ def scene_paths(case: str, integrator: str) -> tuple[Path, Path]:
 
 def run_brdflab(scene: Path, integrator: str, spp: int, case: str) -> dict:
     """One brdflab render in a fresh process; the bench record's single run."""
-    cmd = [sys.executable, "-m", "brdflab.bench", "--one", str(scene), integrator, str(spp), "1", "0", case]
+    cmd = [sys.executable, "-m", "brdflab.benchmarking", "--one", str(scene), integrator, str(spp), "1", "0", case]
     out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True)
     rec = json.loads(out.stdout.strip().splitlines()[-1])
     return rec["runs"][0] | {"load_seconds": rec["load_seconds"], "triangles": rec["triangles"],

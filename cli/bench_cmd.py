@@ -14,7 +14,7 @@ from .options import add_force_option, add_plugin_option, load_plugins
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``bench`` sub-command."""
-    from brdflab.bench import CASES
+    from brdflab.benchmarking import CASES
     from brdflab.renderer import MAX_WORKERS
 
     p = sub.add_parser("bench", help="speed benchmarks of the fixed bench scenes",
@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmarks."""
-    from brdflab.bench import CASES, ROOT, is_scene_case, run_suite
+    from brdflab.benchmarking import CASES, ROOT, is_scene_case, run_suite
     from brdflab.scene.loader import load_scene
 
     load_plugins(args)

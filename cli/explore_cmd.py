@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
 
     load_plugins(args)
     try:
-        from brdflab.viz.explore import serve
+        from brdflab.viz.explorer import serve
     except ImportError as exc:  # bokeh is a dependency; a broken install gets a clear message
         raise BrdflabError(f"the explorer needs Bokeh ({exc}); pip install -e '.[test]'") from None
     try:

@@ -22,7 +22,8 @@ pytest.importorskip("bokeh")
 
 from bokeh.document import Document  # noqa: E402
 
-from brdflab.viz import explore, lobe3d  # noqa: E402
+from brdflab.viz import explorer as explore  # noqa: E402
+from brdflab.viz import lobe3d  # noqa: E402
 
 EVIL = "open({marker!r}, 'w').write('ran')\n"
 

@@ -200,9 +200,9 @@ def test_every_option_has_help():
 
 
 def test_bench_with_missing_scene_exits_2(capsys, monkeypatch):
-    import brdflab.bench
+    import brdflab.benchmarking
 
-    monkeypatch.setitem(brdflab.bench.CASES, "ghost", ("scenes/does_not_exist.xml", ("direct_ems",)))
+    monkeypatch.setitem(brdflab.benchmarking.CASES, "ghost", ("scenes/does_not_exist.xml", ("direct_ems",)))
     _fails(["bench", "ghost"], capsys, "bench scene of ghost not found")
 
 

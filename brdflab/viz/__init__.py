@@ -6,5 +6,5 @@
 * :mod:`brdflab.viz.figures` — matplotlib figures of the views (PNG and SVG).
 * :mod:`brdflab.viz.sphere` — a sphere of the material rendered by brdflab's own integrators.
 * :mod:`brdflab.viz.static` — ``brdflab plot``: every view, its CSV data and a self-contained index.html.
-* :mod:`brdflab.viz.explore` — ``brdflab explore``: the live, linked views in a browser (Bokeh server).
+* :mod:`brdflab.viz.explorer` — ``brdflab explore``: the live, linked views in a browser (Bokeh server).
 """
