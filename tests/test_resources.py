@@ -16,8 +16,8 @@ PEAK_BUDGET_BYTES = 1.5 * 2**30
 
 def _run(spp: int) -> dict:
     scene = mesh1m_scene(ROOT / ".bench-cache")
-    out = subprocess.run([sys.executable, "-m", "brdflab.benchmarking", "--one", str(scene), "direct_ems", str(spp), "1",
-                          "0", "mesh1m"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    out = subprocess.run([sys.executable, "-m", "brdflab.benchmarking", "--one", str(scene), "direct_ems", str(spp),
+                          "1", "0", "mesh1m"], capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 
