@@ -21,6 +21,9 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.chi2_test`` …                         the statistical checks, returning result objects
 ``bl.check``, ``bl.compare``, ``bl.report`` the commands' workflows (:mod:`brdflab.workflows`), returning
 ``bl.plot``, ``bl.validate``               the result objects the commands write as JSON
+``bl.check_samples``, ``bl.bench`` …       samples from another renderer, speed, the explorer
+                                           (:mod:`brdflab.workflows_extra`); ``docs/api.md`` maps every command
+                                           option to its Python name
 =========================================  =====================================================================
 
 Names are imported on first use, so ``import brdflab`` stays fast.
@@ -51,6 +54,7 @@ _EXPORTS = {
     "plugins": "brdflab.plugins",
     "warps": "brdflab.math.warps",
     "kernels": "brdflab.kernels",
+    "effort": "brdflab.effort",
     "chi2_test": "brdflab.judges:chi2_test",
     "warp_chi2_test": "brdflab.judges:warp_chi2_test",
     "consistency_test": "brdflab.judges:consistency_test",
@@ -65,6 +69,10 @@ _EXPORTS = {
     "plot": "brdflab.workflows:plot",
     "validate": "brdflab.workflows:validate",
     "fit": "brdflab.fitting:fit",
+    "check_samples": "brdflab.workflows_extra:check_samples",
+    "check_emitter_samples": "brdflab.workflows_extra:check_emitter_samples",
+    "bench": "brdflab.workflows_extra:bench",
+    "explore": "brdflab.workflows_extra:explore",
     "Measured": "brdflab.bsdf.measured:Measured",
 }
 

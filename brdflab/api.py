@@ -55,7 +55,7 @@ def load_scene(path: str | Path, *, integrator: str | None = None, spp: int | No
 
 
 def render(scene, spp: int | None = None, seed: int | None = None, workers: int | None = None, *,
-           return_stats: bool = False, cluster=None):
+           return_stats: bool = False, cluster=None, time_limit: float | None = None):
     """Render a loaded scene and return its image.
 
     Parameters
@@ -72,6 +72,8 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     cluster
         Render on a Dask cluster instead: ``"tcp://host:8786"``, ``"local:4"`` or a
         :class:`brdflab.cluster.Cluster` (same image, see :mod:`brdflab.cluster`).
+    time_limit
+        Seconds: render as many full passes as fit (``--time-limit``); the stats say how many samples that was.
 
     Returns
     -------
@@ -91,4 +93,4 @@ def render(scene, spp: int | None = None, seed: int | None = None, workers: int 
     """
     from brdflab.renderer import render_image
 
-    return render_image(scene, spp, seed, workers, return_stats=return_stats, cluster=cluster)
+    return render_image(scene, spp, seed, workers, return_stats=return_stats, cluster=cluster, time_limit=time_limit)

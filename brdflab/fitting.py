@@ -20,6 +20,7 @@ The page shows the θh × θd slice at φd = 90° of the measurement, of the fit
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -132,8 +133,16 @@ def _model_call(model: str, params: dict, fn):
                            f"(at {clean(shown, 100)})") from None
 
 
+#: Node strides of the command line's ``--effort`` levels.
+EFFORT_STRIDES = {"quick": (4, 6, 12), "normal": STRIDE, "full": (1, 2, 3)}
+#: What ``fit(..., output=DIR)`` writes into DIR.
+FIT_FILES = ("fit.html", "fit.json", "fit_slices.png")
+
+
 def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict | None = None,
-        stride: tuple[int, int, int] = STRIDE) -> FitResult:
+        stride: tuple[int, int, int] | None = None, *, fix: dict | Sequence[str] | None = None,
+        effort: str | None = None, output: str | Path | None = None, force: bool = False,
+        plugins: Sequence[str] | str | None = None) -> FitResult:
     """Fit ``model``'s parameters to a measured BRDF.
 
     Parameters
@@ -144,10 +153,16 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
         A BSDF type (built-in or registered plugin) with float and colour parameters.
     loss
         ``"log"`` (default) or ``"linear"`` (module docstring).
-    fixed
-        Parameters held at given values (e.g. ``{"intIOR": 1.5}``); strings are converted by kind.
-    stride
-        Use every (θh, θd, φd)-th node of the table.
+    fixed, fix
+        Parameters held at given values (e.g. ``{"intIOR": 1.5}``, or the command line's ``["intIOR=1.5"]`` as
+        ``fix``); strings are converted by kind.
+    stride, effort
+        Use every (θh, θd, φd)-th node of the table (default (2, 3, 6)); or the command line's ``--effort``:
+        ``"quick"`` (4, 6, 12), ``"normal"``, ``"full"`` (1, 2, 3).
+    output, force
+        A folder for ``fit.html``, ``fit.json`` and the slices (``-o``), checked before the work.
+    plugins
+        ``--plugin`` specs (a model that is a plugin's type).
 
     Returns
     -------
@@ -166,10 +181,26 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
 
     from brdflab.bsdf.measured import Measured, read_merl
     from brdflab.plugins import bsdf_class, bsdf_parameters, parameter_kinds
+    from brdflab.workflows import _load_plugins, _specs
 
     if loss not in LOSSES:
         raise BrdflabError(f"loss must be one of {', '.join(LOSSES)}, got '{clean(loss, 40)}'")
-    stride = _check_stride(stride)
+    if effort is not None and effort not in EFFORT_STRIDES:
+        raise BrdflabError(f"effort must be one of {', '.join(EFFORT_STRIDES)}, got '{clean(effort, 20)}'")
+    if stride is not None and effort is not None:
+        raise BrdflabError("fit: give stride or effort, not both")
+    stride = _check_stride(stride if stride is not None else EFFORT_STRIDES[effort or "normal"])
+    if fix is not None:
+        if fixed is not None:
+            raise BrdflabError("fit: give fixed or fix, not both")
+        fixed = fix if isinstance(fix, dict) else _key_values(fix)
+    _load_plugins(plugins)
+    bsdf_class(model)  # an unknown model fails before the work
+    if output is not None:
+        from brdflab.outputs import prepare_folder
+
+        inputs = [measured] if isinstance(measured, str | Path) else []
+        prepare_folder(Path(output), list(FIT_FILES), [*inputs, *_specs(plugins)], force)  # before the work
     if isinstance(measured, str | Path):
         table = read_merl(measured, raw=True)
     elif isinstance(measured, Measured):
@@ -257,7 +288,26 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     _check_values(model, params, fm)
     rel = float(np.sum(np.abs(fm - f_meas) * cc[:, None]) / max(np.sum(f_meas * cc[:, None]), 1e-300))
     rms = float(math.sqrt(2 * best.cost / best.fun.size))
-    return FitResult(model, params, loss, rms, rel, int(len(wi)), evaluations[0], tried)
+    result = FitResult(model, params, loss, rms, rel, int(len(wi)), evaluations[0], tried)
+    if output is not None:
+        from brdflab.bsdf.measured import measured_values
+        from brdflab.outputs import record_outputs
+
+        name = Path(measured).name if isinstance(measured, str | Path) else "the table"
+        write_fit_page(Path(output), measured_values(table), result, title=f"brdflab fit — {name} as {model}")
+        record_outputs(Path(output), list(FIT_FILES))
+    return result
+
+
+def _key_values(items: Sequence[str]) -> dict[str, str]:
+    """``["K=V", …]`` → ``{K: V}`` (the command line's ``--fix``; values converted by kind later)."""
+    out: dict[str, str] = {}
+    for item in items:
+        k, sep, v = str(item).partition("=")
+        if not sep or not k.strip():
+            raise BrdflabError(f"fix expects K=V, got '{clean(item, 40)}'")
+        out[k.strip()] = v
+    return out
 
 
 def _plain(v):

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from brdflab.builtin_types import is_builtin_class as _is_builtin_class
-from brdflab.errors import BrdflabError, clean, code_location, first_line
+from brdflab.errors import BrdflabError, ascii_int, clean, code_location, first_line
 from brdflab.scene.properties import PropertyList
 
 _KINDS = ("float", "integer", "boolean", "string", "color")
@@ -81,7 +81,9 @@ def convert_value(kind: str, text: str, what: str) -> Any:
         if kind == "float":
             v = float(t)
         elif kind == "integer":
-            v = int(t)
+            v = ascii_int(t, signed=True)
+            if v is None:
+                raise ValueError
         elif kind == "boolean":
             if t.lower() not in ("true", "false", "1", "0", "yes", "no"):
                 raise ValueError

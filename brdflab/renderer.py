@@ -315,9 +315,11 @@ def _cluster_executor(cluster):
 
 
 def render_image(scene, spp: int | None = None, seed: int | None = None, workers: int | None = None, *,
-                 return_stats: bool = False, cluster=None):
+                 return_stats: bool = False, cluster=None, time_limit: float | None = None):
     """:func:`render` as the public API gives it (``bl.render``): the image as float32, and the stats only
     when asked for (documented in :func:`brdflab.api.render`)."""
-    image, stats = render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster)
+    if time_limit is not None and not (isinstance(time_limit, int | float) and time_limit > 0):
+        raise BrdflabError(f"time_limit must be a number of seconds > 0, got {clean(time_limit, 30)}")
+    image, stats = render(scene, spp=spp, seed=seed, workers=workers, cluster=cluster, time_limit=time_limit)
     image = np.asarray(image, dtype=np.float32)
     return (image, stats) if return_stats else image

@@ -262,9 +262,10 @@ def compare(test, reference, *, flip: bool = True, crop: tuple[int, int, int, in
 
 
 def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direct_mats", "direct_mis"), *,
-           spp: Sequence[int] = (4, 16, 64), runs: int = 4, ref: str | Path | None = None, ref_spp: int | None = None,
-           seed: int = 0, workers: int | None = None, resolution: tuple[int, int] | None = None,
-           flip: bool = True, mis_weights: bool = True, output: str | Path | None = None,
+           spp: Sequence[int] = (1, 4, 16, 64, 256), runs: int = 4, ref: str | Path | None = None,
+           ref_spp: int | None = None, seed: int = 0, workers: int | None = None,
+           resolution: tuple[int, int] | None = None, flip: bool = True, mis_weights: bool = True,
+           output: str | Path | None = None,
            plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
            force: bool = False, cluster=None):
     """Compare integrators on one scene: error against samples and time, with intervals (``brdflab report``).
@@ -327,11 +328,12 @@ class PlotResult:
         return {"page": str(self.page) if self.page else None, "views": self.views}
 
 
-def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0, times_cos: bool = False,
+def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0, cos: bool | None = None,
          views: Sequence[str] = ("polar", "lobe", "slice", "albedo", "sphere"), samples: int = 20_000,
-         sphere_size: int = 128, sphere_spp: int = 16, workers: int | None = None, labels: Sequence[str] | None = None,
-         plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-         force: bool = False) -> PlotResult:
+         size: int | None = None, spp: int | None = None, workers: int | None = None,
+         labels: Sequence[str] | None = None, plugins: Sequence[str] | str | None = None,
+         progress: Callable[[str], None] | None = None, force: bool = False, times_cos: bool = False,
+         sphere_size: int = 128, sphere_spp: int = 16) -> PlotResult:
     """Draw one BSDF or several overlaid: polar slice, 3D lobe, θh×θd slice, albedo, lit spheres (``brdflab plot``).
 
     Parameters
@@ -341,6 +343,9 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
     output, force
         The folder for ``index.html`` and each view as PNG, SVG and CSV, checked before the work (never an input,
         never a file brdflab did not write unless ``force``).
+    cos, size, spp
+        The command line's ``--cos`` (polar plot of f·cos θ_o), ``--size`` and ``--spp`` (the lit spheres'
+        resolution and samples per pixel); ``times_cos``, ``sphere_size`` and ``sphere_spp`` are their older names.
 
     Examples
     --------
@@ -375,8 +380,9 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
             wrap = not isinstance(item, CheckedBSDF) and not is_builtin_class(type(item))
             objs.append(SceneCheckedBSDF(item) if wrap else item)
             names.append(getattr(item, "type_name", "") or type(item).__name__)
-    opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos, views=tuple(views), samples=samples,
-                       sphere_size=sphere_size, sphere_spp=sphere_spp, workers=workers)
+    opts = PlotOptions(theta=theta, phi_d=phi_d, times_cos=times_cos if cos is None else cos, views=tuple(views),
+                       samples=samples, sphere_size=sphere_size if size is None else size,
+                       sphere_spp=sphere_spp if spp is None else spp, workers=workers)
     files = plot_files(tuple(views), len(objs))
     check_plot_work(opts, len(objs))
     prepare_folder(Path(output), files, [p for p in _specs(plugins)], force)  # before the work

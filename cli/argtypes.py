@@ -24,6 +24,17 @@ def _int(text: str) -> int:
     return v
 
 
+def resolution(text: str) -> tuple[int, int]:
+    """``WIDTHxHEIGHT`` in ASCII digits, both ≥ 1 (``--resolution``)."""
+    parts = text.lower().split("x")
+    dims = [ascii_int(p) for p in parts] if len(parts) == 2 else [None]
+    if None in dims:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT, got '{clean(text, 40)}'")
+    if min(dims) < 1 or max(dims) > 65_535:
+        raise argparse.ArgumentTypeError(f"sizes must be from 1 to 65535, got '{clean(text, 40)}'")
+    return dims[0], dims[1]
+
+
 def count(lo: int = 1, hi: int | None = None) -> Callable[[str], int]:
     """An integer in [lo, hi] (a sample count, a number of runs or workers)."""
 

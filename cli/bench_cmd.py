@@ -7,9 +7,8 @@ import sys
 from pathlib import Path
 
 from brdflab.cli.argtypes import count
-from brdflab.errors import BrdflabError, clean
 
-from .options import add_force_option, add_plugin_option, load_plugins
+from .options import add_force_option, add_plugin_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,33 +31,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the benchmarks."""
-    from brdflab.benchmarking import CASES, ROOT, is_scene_case, run_suite
-    from brdflab.scene.loader import load_scene
+    """Run the benchmarks (:func:`brdflab.workflows_extra.bench`)."""
+    from brdflab.workflows_extra import bench, bench_expected
 
-    load_plugins(args)
-    inputs = [*args.plugin]  # what the --json file must never be
-    for c in args.cases:
-        if is_scene_case(c):
-            inputs += load_scene(Path(c)).inputs  # a user's scene: every error (and a missing --plugin) before any run
-        elif c not in CASES:
-            raise BrdflabError(f"unknown bench case '{clean(c)}'; valid: {', '.join(CASES)}, or a scene file (.xml)")
-    missing = [c for c in args.cases if not is_scene_case(c) and CASES[c][0] != "<generated>"
-               and not (ROOT / CASES[c][0]).is_file()]
-    if missing:
-        where = clean(ROOT / CASES[missing[0]][0], 100)
-        raise BrdflabError(f"bench scene of {', '.join(missing)} not found ({where}); "
-                           "nothing was run")
-    from brdflab.outputs import prepare_files, record_outputs
-
-    # before the runs: not an input, not a folder, not a file brdflab did not write (without --force), writable
-    prepare_files([args.json], inputs, args.force, "--json")
-    records = run_suite(args.cases, args.spp, args.runs, args.workers, args.json, plugins=args.plugin)
-    if args.json.exists():
-        record_outputs(args.json.parent, [args.json.name])
-    expected = sum(1 if is_scene_case(c) else len(CASES[c][1]) for c in args.cases)
-    if len(records) < expected:
-        print(f"brdflab: error: {expected - len(records)} bench run(s) failed", file=sys.stderr)
+    records = bench(args.cases, spp=args.spp, runs=args.runs, workers=args.workers, json=args.json, force=args.force,
+                    plugins=args.plugin)
+    if len(records) < bench_expected(args.cases):
+        print(f"brdflab: error: {bench_expected(args.cases) - len(records)} bench run(s) failed", file=sys.stderr)
         return 1
     print(f"wrote {args.json}")
     return 0

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from brdflab.cli.argtypes import count, number, seed
+from brdflab.cli.argtypes import count, number, resolution, seed
 
 from .cluster_options import add_cluster_options, cluster_from_args
 from .options import add_force_option, add_plugin_option
@@ -45,6 +45,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--where-spp", type=count(0, 4096), default=8, metavar="N",
                    help="samples per pixel of the auxiliary renders that say, for a biased render, which materials, "
                    "emitters and sampling strategy the flagged regions follow (default 8; 0: off)")
+    p.add_argument("--resolution", metavar="WxH", type=resolution,
+                   help="replace the scene camera's size, for brdflab's runs and your renders alike (quick checks)")
     p.add_argument("--quiet", action="store_true", help="only the verdict line")
     add_force_option(p, "files in the output folder")
     add_plugin_option(p)
@@ -63,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
         res = check(args.renders, args.scene, integrator=args.integrator, spp=args.spp, runs=args.runs,
                     seed=args.seed, ref=args.ref, ref_var=args.ref_var, user_spp=args.user_spp, block=args.block,
                     levels=args.levels, alpha=args.alpha, workers=args.workers, output=out, force=args.force,
-                    plugins=args.plugin, progress=say, where_spp=args.where_spp, cluster=cluster)
+                    plugins=args.plugin, progress=say, where_spp=args.where_spp, cluster=cluster,
+                    resolution=args.resolution)
     print(res.verdict())
     if res.estimate_note:
         print(res.estimate_note)

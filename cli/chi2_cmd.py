@@ -125,7 +125,7 @@ def run_samples_file(args: argparse.Namespace) -> int:
     """``chi2 --samples FILE --against NAME``: exit 0 if the file's samples pass, 1 if not (saying which check)."""
     from brdflab.errors import BrdflabError
     from brdflab.judges.material.battery import WARPS
-    from brdflab.judges.samples.bsdf_checks import check_samples
+    from brdflab.workflows_extra import check_samples
 
     if args.against_emitter:
         return run_emitter_samples(args)
@@ -148,20 +148,17 @@ def run_samples_file(args: argparse.Namespace) -> int:
         name, params, _, _ = bsdf_spec_from_args(args, args.against)
     out = args.output or DEFAULT_REPORTS / f"chi2_samples_{Path(args.samples).stem}"
     parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
-    report_files = ["index.html", "samples_group_*.png"]
-    prepare_folder(out, report_files, [args.samples, *(getattr(args, "plugin", None) or [])], args.force)
-    res = check_samples(args.samples, name, alpha=alphas[0] if alphas else None, params=params)
+    res = check_samples(args.samples, name, alpha=alphas[0] if alphas else None, params=params, output=out,
+                        force=args.force, plugins=getattr(args, "plugin", None))
     print(f"{res.path}: {sum(g.n for g in res.groups)} samples in {len(res.groups)} wi group(s) against "
           f"{res.against} (chi-square threshold {res.threshold:.3g} per group)")
     for line in res.messages():
         print(line)
-    from brdflab.pages.index import write_index
-    from brdflab.pages.samples_report import write_samples_report
-
-    path = write_samples_report(res, out)
-    record_outputs(out, report_files)
+    path = out / "index.html"
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
+        from brdflab.pages.index import write_index
+
         write_index(root)
     bad = [g for g in res.groups if not g.passed]
     verdict = [f"{len(bad)} of {len(res.groups)} wi group(s) FAILED"] if bad else []
@@ -173,30 +170,21 @@ def run_samples_file(args: argparse.Namespace) -> int:
 def run_emitter_samples(args: argparse.Namespace) -> int:
     """``chi2 --samples FILE --against-emitter SCENE[:INDEX]``: exit 0 if the light samples pass, 1 if not."""
     from brdflab.errors import BrdflabError
-    from brdflab.judges.samples.light_samples import (
-        EMITTER_REPORT_FILES,
-        check_emitter_samples,
-        parse_target,
-        write_emitter_report,
-    )
-    from brdflab.scene.loader import load_scene
+    from brdflab.judges.samples.light_samples import parse_target
+    from brdflab.workflows_extra import check_emitter_samples
 
     if args.against or args.bsdf or args.warp or args.theta or args.full or args.count is not None or args.alpha \
             or args.param:
         raise BrdflabError("--samples FILE --against-emitter SCENE takes no BSDF, warp or count options")
     scene_path, index = parse_target(args.against_emitter)
-    load_plugins(args)
-    scene = load_scene(scene_path)
     out = args.output or DEFAULT_REPORTS / f"chi2_emitter_samples_{Path(args.samples).stem}"
     parent_created = output_folder(out.parent) if args.output else False  # checked before the tests run
-    prepare_folder(out, list(EMITTER_REPORT_FILES), [args.samples, scene_path, *scene.inputs,
-                                                     *(getattr(args, "plugin", None) or [])], args.force)
-    res = check_emitter_samples(args.samples, scene, index, target=args.against_emitter)
+    res = check_emitter_samples(args.samples, scene_path, index=index, output=out, force=args.force,
+                                plugins=getattr(args, "plugin", None))
     print(f"{res.path}: {res.samples} light samples against {res.target}")
     for line in res.messages():
         print(line)
-    path = write_emitter_report(res, out)
-    record_outputs(out, list(EMITTER_REPORT_FILES))
+    path = out / "emitter_samples.html"
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         from brdflab.pages.index import write_index

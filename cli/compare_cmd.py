@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from brdflab.cli.options import add_force_option
-from brdflab.errors import BrdflabError, clean
+from brdflab.errors import BrdflabError, ascii_int, clean
 from brdflab.outputs import json_text, prepare_files
 
 
@@ -87,8 +87,7 @@ def _figure_path(path: Path | None, option: str) -> Path | None:
 
 
 def _box(text: str) -> tuple[int, int, int, int]:
-    try:
-        x, y, w, h = (int(v) for v in text.split(","))
-    except ValueError:
-        raise BrdflabError(f"--crop: expected X,Y,W,H (four integers), got '{clean(text, 40)}'") from None
-    return x, y, w, h
+    vals = [ascii_int(v, signed=True) for v in text.split(",")]
+    if len(vals) != 4 or None in vals:
+        raise BrdflabError(f"--crop: expected X,Y,W,H (four integers), got '{clean(text, 40)}'")
+    return vals[0], vals[1], vals[2], vals[3]

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from brdflab.errors import BrdflabError
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``explore`` sub-command."""
@@ -23,16 +21,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load the plugins and serve until interrupted."""
-    from brdflab.cli.options import load_plugins
+    """Serve until interrupted (:func:`brdflab.workflows_extra.explore`)."""
+    from brdflab.workflows_extra import explore
 
-    load_plugins(args)
-    try:
-        from brdflab.viz.explorer import serve
-    except ImportError as exc:  # bokeh is a dependency; a broken install gets a clear message
-        raise BrdflabError(f"the explorer needs Bokeh ({exc}); pip install -e '.[test]'") from None
-    try:
-        serve(args.port, open_browser=not args.no_browser)
-    except OSError as exc:
-        raise BrdflabError(f"cannot serve on 127.0.0.1:{args.port}: {exc.strerror or exc}") from None
+    explore(plugins=args.plugin, port=args.port, browser=not args.no_browser)
     return 0

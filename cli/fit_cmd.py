@@ -7,9 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from brdflab.errors import BrdflabError
-
-from .options import add_effort_option, add_force_option, add_plugin_option, load_plugins, parse_params
+from .options import add_effort_option, add_force_option, add_plugin_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,28 +33,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Fit and write the page."""
-    from brdflab.bsdf.measured import measured_values, read_merl
-    from brdflab.fitting import fit, write_fit_page
-    from brdflab.outputs import prepare_folder, record_outputs
-    from brdflab.plugins import bsdf_class
+    """Fit and write the page (:func:`brdflab.fitting.fit`)."""
+    from brdflab.fitting import fit
 
-    load_plugins(args)
-    bsdf_class(args.model)  # an unknown model fails before the work
     out = args.output or args.measured.parent / f"fit-{args.measured.stem}"
-    files = ["fit.html", "fit.json", "fit_slices.png"]
-    prepare_folder(out, files, [args.measured, *args.plugin], args.force)  # before the work
-    raw = read_merl(args.measured, raw=True)  # unmeasured nodes are left out of the fit, not fitted as 0
-    stride = {"quick": (4, 6, 12), "full": (1, 2, 3)}.get(args.effort or "normal", (2, 3, 6))
-    res = fit(raw, args.model, args.loss, fixed=parse_params(args.fix), stride=stride)
-    table = measured_values(raw)
-    page = write_fit_page(out, table, res, title=f"brdflab fit — {args.measured.name} as {args.model}")
-    record_outputs(out, files)
+    res = fit(args.measured, args.model, args.loss, fix=args.fix, effort=args.effort or "normal", output=out,
+              force=args.force, plugins=args.plugin)
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
     else:
         print(res.summary())
-    print(f"wrote {page}", file=sys.stderr)
-    if not (res.rms == res.rms):
-        raise BrdflabError("the fit did not converge (NaN residual)")
+    print(f"wrote {out / 'fit.html'}", file=sys.stderr)
     return 0

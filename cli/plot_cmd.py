@@ -69,8 +69,8 @@ def run(args: argparse.Namespace) -> int:
     specs = bspec.resolve(args.bsdf or ["roughconductor"], args.alpha, args.param)
     bsdfs = [bspec.build(s) for s in specs]
     out = args.output or Path("plots") / specs[0].name
-    res = plot(bsdfs, out, theta=theta, phi_d=args.phi_d, times_cos=args.cos, views=chosen, samples=args.samples,
-               sphere_size=args.size, sphere_spp=args.spp, workers=args.workers, labels=[s.label for s in specs],
+    res = plot(bsdfs, out, theta=theta, phi_d=args.phi_d, cos=args.cos, views=chosen, samples=args.samples,
+               size=args.size, spp=args.spp, workers=args.workers, labels=[s.label for s in specs],
                plugins=args.plugin, progress=lambda m: print("  " + m), force=args.force)
     print(f"wrote {', '.join(chosen)} for {len(bsdfs)} BSDF(s): {res.page}")
     return 0

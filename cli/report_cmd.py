@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from brdflab.cli.argtypes import count, seed
+from brdflab.cli.argtypes import count, resolution, seed
 from brdflab.errors import BrdflabError, clean
 from brdflab.outputs import DEFAULT_REPORTS, index_root, output_folder
 
@@ -32,7 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default 4); intervals, speed-ups and bias flags come from their spread")
     p.add_argument("--ref-spp", type=count(1), help="spp of each of the 4 runs of the self-made reference "
                    "(default: 4 × the largest spp, 16 × in total)")
-    p.add_argument("--resolution", metavar="WxH", help="render at this size instead of the camera's")
+    p.add_argument("--resolution", metavar="WxH", type=resolution,
+                   help="render at this size instead of the camera's")
     p.add_argument("--no-flip", action="store_true", help="skip HDR-FLIP")
     p.add_argument("--no-mis-weights", action="store_true", help="skip the MIS weight images")
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
@@ -54,16 +55,6 @@ def _ints(text: str, what: str) -> list[int]:
     return values
 
 
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise BrdflabError(f"--resolution: expected WIDTHxHEIGHT, got '{clean(text, 40)}'") from None
-    if w < 1 or h < 1:
-        raise BrdflabError(f"--resolution: sizes must be positive, got '{clean(text, 40)}'")
-    return w, h
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the study and write the report."""
     from brdflab.pages.index import write_index
@@ -78,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if len(set(integrators)) != len(integrators):
         raise BrdflabError(f"--integrators: '{clean(args.integrators, 80)}' names an integrator twice")
     spp = _ints(args.spp, "--spp")
-    resolution = _resolution(args.resolution) if args.resolution else None
+    resolution = args.resolution
     out = args.output or DEFAULT_REPORTS / args.scene.stem
     parent_created = output_folder(out.parent) if args.output else False
     with cluster_from_args(args) as cluster:

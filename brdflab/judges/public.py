@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import zlib
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,8 @@ def _plain(p: Any) -> Any:
 
 
 def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | None = None,
-              threshold: float | None = None, name: str | None = None, params: dict | None = None) -> Chi2Result:
+              threshold: float | None = None, name: str | None = None, params: dict | None = None, *,
+              count: int | None = None, output: str | Path | None = None, force: bool = False) -> Chi2Result:
     """Chi-square goodness of fit of ``bsdf.sample`` against ``bsdf.pdf`` for one incident angle.
 
     Bins are placed by a pilot sample of the BSDF's own sampler on an independent stream (equal
@@ -56,6 +58,10 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
         Per-test significance (the test passes when p > threshold).
     name, params
         For messages (default: the type name and the BSDF's scalar attributes).
+    count
+        The command line's name (``-n/--count``) for ``samples``; wins when given.
+    output, force
+        A folder for the chi-square page (``-o``), checked before the test.
 
     Returns
     -------
@@ -73,13 +79,27 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
     from brdflab.judges.core.guard import bsdf_params, describe
     from brdflab.limits import check_test_arguments
 
-    theta, samples, threshold = check_test_arguments(theta, samples, threshold)
+    theta, samples, threshold = check_test_arguments(theta, samples if count is None else count, threshold)
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
+    if output is not None:
+        from brdflab.outputs import prepare_folder
+        from brdflab.pages.validation import VALIDATION_FILES
+
+        prepare_folder(Path(output), list(VALIDATION_FILES), [], force)  # before the work
     if seed is None:
         seed = test_seed("chi2", bsdf_identity(bsdf), params, float(theta))
-    return _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
-                         threshold=SIGNIFICANCE if threshold is None else threshold)
+    result = _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
+                           threshold=SIGNIFICANCE if threshold is None else threshold)
+    if output is not None:
+        from brdflab.judges.material.battery import Battery
+        from brdflab.outputs import record_outputs
+        from brdflab.pages.validation import VALIDATION_FILES, write_validation_report
+
+        write_validation_report(Battery(chi2=[result], threshold=result.threshold), Path(output),
+                                title=f"brdflab chi-square: {name}")
+        record_outputs(Path(output), list(VALIDATION_FILES))
+    return result
 
 
 def warp_chi2_test(warp: Callable, pdf: Callable, samples: int = 200_000, seed: int | None = None,
