@@ -271,3 +271,28 @@ def test_sigterm_stops_the_explorer_with_143(tmp_path):
             proc.kill()
         log.close()
     assert "stopped (SIGTERM)" in (tmp_path / "explore.log").read_text()
+
+
+def test_a_burst_of_changes_computes_once_on_the_latest_value():
+    """Issue 43: 40 slider changes queued 40 updates (~2.5 s each under load); coalesced, the burst computes once,
+    from the widgets' last values, and the status line agrees with the sliders."""
+    from bokeh.document import Document
+
+    from brdflab.viz.coalesce import Coalescer
+
+    pending = []
+    doc = Document()
+    explore.make_document(doc, schedule=pending.append)  # runs only when the test says so
+    theta = doc.get_model_by_name("theta_i")
+    for v in range(10, 50):  # 40 changes, as 40 arrow-key presses would send
+        theta.value = v
+    assert len(pending) == 1  # one run scheduled for the whole burst
+    pending.pop()()
+    status = doc.get_model_by_name("status").text
+    assert "θ_i = 49°" in status and "<span id='updates' hidden>1</span>" in status, status
+    # a change while nothing is pending schedules again; a run with nothing pending computes nothing
+    theta.value = 30
+    assert len(pending) == 1
+    c = Coalescer(lambda: None, lambda cb: None)
+    c._run()
+    assert c.runs == 0

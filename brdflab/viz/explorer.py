@@ -37,6 +37,7 @@ from html import escape as esc
 import numpy as np
 
 from brdflab.viz import coords, lobe3d, views
+from brdflab.viz.coalesce import DEBOUNCE_MS, Coalescer
 
 #: Albedo curve angles of the explorer (fewer than ``brdflab plot``, so that it stays interactive).
 THETAS = tuple(float(t) for t in range(0, 90, 8))
@@ -107,8 +108,11 @@ def _one_line(exc: BaseException) -> str:
     return text if len(text) <= 160 else text[:157] + "…"
 
 
-def make_document(doc, allowed: dict[str, type] | None = None) -> None:
-    """Build the explorer into a Bokeh document (one per browser tab) offering the types of ``allowed``."""
+def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) -> None:
+    """Build the explorer into a Bokeh document (one per browser tab) offering the types of ``allowed``.
+
+    ``schedule(callback)`` runs a coalesced update later (:class:`Coalescer`); by default a timeout of
+    :data:`DEBOUNCE_MS` on a served document, at once on a document without a server session (tests)."""
     from bokeh.layouts import column, row
     from bokeh.models import (
         Checkbox,
@@ -162,7 +166,7 @@ def make_document(doc, allowed: dict[str, type] | None = None) -> None:
     pts_src = ColumnDataSource({"x": [], "y": []})
 
     tools = "pan,wheel_zoom,reset,save"
-    polar = figure(title="plane of incidence (θ_o signed: + opposite ω_i)", width=VIEW_W, height=230,
+    polar = figure(title="plane of incidence (θ_o > 0: away from ω_i)", width=VIEW_W, height=230,
                    x_range=(-1.05, 1.05), y_range=(-0.02, 1.05), match_aspect=True, tools=tools, name="polar")
     polar.multi_line("xs", "ys", color="c", source=guide_src, line_dash="dashed")
     polar.line("x", "y", source=polar_src, line_width=2, color="#1f77b4")
@@ -291,13 +295,13 @@ def make_document(doc, allowed: dict[str, type] | None = None) -> None:
                 w = Slider(title=key, start=lo, end=hi, step=step, value=v, name=f"param_{key}",
                            width=CONTROLS_W - 10)
                 numeric[f"param_{key}"] = (w, float(lo), float(hi), v)
-                w.on_change("value", guarded(lambda attr, old, new: update()))
+                w.on_change("value", updates.on_change)
             elif kind == "boolean":
                 w = Checkbox(label=key, active=bool(default), name=f"param_{key}")
-                w.on_change("active", guarded(lambda attr, old, new: update()))
+                w.on_change("active", updates.on_change)
             else:
                 w = TextInput(title=key, value=str(default)[:MAX_TEXT], name=f"param_{key}", width=CONTROLS_W - 10)
-                w.on_change("value", guarded(lambda attr, old, new: update()))
+                w.on_change("value", updates.on_change)
             widgets[key] = (kind, w)
             children.append(w)
         params_box.children = children
@@ -384,7 +388,13 @@ def make_document(doc, allowed: dict[str, type] | None = None) -> None:
         failed = 100 * (1 - ok.mean())
         status.text = (f"<b>{esc(name)}</b> {esc(shown)} — θ_i = {ti:g}°, φ_i = {pi:g}°: peak f = "
                        f"<span id='peak'>{fmax:.4g}</span> at θ_o = {peak:+.1f}°; ρ(θ_i) = {cur_src.data['q'][0]:.4f}; "
-                       f"{failed:.1f} % samples failed")
+                       f"{failed:.1f} % samples failed<span id='updates' hidden>{updates.runs}</span>")
+
+    if schedule is None:  # a served document: after a burst's last change; no server (tests): at once
+        served = getattr(doc, "session_context", None) is not None
+        schedule = (lambda cb: doc.add_timeout_callback(cb, DEBOUNCE_MS)) if served else (lambda cb: cb())
+    updates = Coalescer(guarded(update), schedule)
+    redraws = Coalescer(guarded(draw_lobe), schedule)
 
     def on_bsdf(attr, old, new) -> None:
         if new == state["name"]:
@@ -397,14 +407,14 @@ def make_document(doc, allowed: dict[str, type] | None = None) -> None:
             return
         state["name"] = new
         rebuild_params()
-        update()
+        updates.request()
 
     select.on_change("value", guarded(on_bsdf))
     for w in (theta_i, phi_i, phi_d):
-        w.on_change("value", guarded(lambda attr, old, new: update()))
+        w.on_change("value", updates.on_change)
     for w in (view_az, view_el):
-        w.on_change("value", guarded(lambda attr, old, new: draw_lobe()))
-    logscale.on_change("active", guarded(lambda attr, old, new: update()))
+        w.on_change("value", redraws.on_change)
+    logscale.on_change("active", updates.on_change)
     guarded(rebuild_params)()
     guarded(update)()
     controls = column(Div(text="<h3 style='margin:4px 0'>brdflab explore</h3>"), select, theta_i, phi_i, phi_d,
