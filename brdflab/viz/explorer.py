@@ -177,8 +177,9 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
     lobe.multi_line("xs", "ys", color="c", line_width=2, source=axes_src)
     lobe.axis.visible = False
     lobe.grid.visible = False
-    mapper = LinearColorMapper(palette="Magma256", low=-4, high=0)
-    sl = figure(title="θ_h × θ_d slice: log₁₀ f", width=VIEW_W, height=280, x_range=(0, 90), y_range=(0, 90),
+    mapper = LinearColorMapper(palette="Magma256", low=-4, high=0, nan_color="#cccccc")
+    sl = figure(title="θ_h × θ_d slice: log₁₀ f (grey: outside)", width=VIEW_W, height=280, x_range=(0, 90),
+                y_range=(0, 90),
                 tools="hover,reset,save", name="slice")
     sl.image("image", x=0, y=0, dw=90, dh=90, color_mapper=mapper, source=slice_src)
     sl.add_layout(ColorBar(color_mapper=mapper, width=10), "right")
@@ -352,10 +353,12 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
         draw_lobe()
         # Slice.
         _, _, sv = views.half_diff_slice([bsdf], number("phi_d"), n=72)
-        lg = np.log10(np.where(np.isfinite(sv[0]) & (sv[0] > 0), sv[0], np.nan))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lg = np.log10(np.where(np.isfinite(sv[0]) & (sv[0] > 0), sv[0], np.nan))
         top = float(np.nanmax(lg)) if np.isfinite(lg).any() else 0.0
         mapper.low, mapper.high = top - 5, top
-        slice_src.data = {"image": [np.nan_to_num(lg, nan=top - 6)]}
+        # f = 0 below the colour range (black, as in `brdflab plot`); outside the hemisphere NaN: grey
+        slice_src.data = {"image": [np.where(np.isfinite(sv[0]), np.nan_to_num(lg, nan=top - 6), np.nan)]}
         # Albedo (only when the material changed).
         key = (name, tuple(sorted((k, repr(x)) for k, x in values.items())))
         if state["bsdf_key"] != key:

@@ -32,6 +32,24 @@ def colours(k: int) -> list:
     return [cmap(i % 10) for i in range(k)]
 
 
+#: Line styles and markers per BSDF, so that overlays stay legible in grey print.
+STYLES = ["-", "--", ":", "-."]
+MARKERS = ["", "o", "s", "^", "v", "D"]
+
+
+def line_style(k: int) -> dict:
+    """matplotlib keywords of the ``k``-th curve: its colour, a dash pattern and (after four) a sparse marker."""
+    return {"ls": STYLES[k % len(STYLES)], "marker": MARKERS[(k // len(STYLES)) % len(MARKERS)] or None,
+            "markevery": 24, "ms": 4}
+
+
+def wrapped(text: str, width: int = 24) -> str:
+    """``text`` broken into lines of at most ``width`` characters (titles that must not overprint)."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(str(text), width)) or str(text)
+
+
 def save(fig, base: Path, dpi: int = 100, formats: tuple[str, ...] = ("png", "svg")) -> list[Path]:
     """Write ``base``.png and ``base``.svg (or the given ``formats``) and close the figure; return the paths."""
     paths = []
@@ -57,20 +75,27 @@ def polar_figure(theta_o: np.ndarray, values: np.ndarray, labels: list[str], the
     plt = _plt()
     v = values * np.cos(np.radians(theta_o)) if times_cos else values
     quantity = "f·cos θ_o" if times_cos else "f"
-    fig, axes = plt.subplots(1, 2, figsize=(10.5, 3.7), subplot_kw={"projection": "polar"})
+    several = len(labels) > 1
+    rows_legend = (len(labels) + 2) // 2
+    fig, axes = plt.subplots(1, 2, figsize=(10.5, 3.3 + 0.2 * rows_legend), subplot_kw={"projection": "polar"})
     t = np.radians(theta_o)
     vmax = float(np.nanmax(v)) if np.isfinite(np.nanmax(v)) and np.nanmax(v) > 0 else 1.0
     floor = vmax / 10.0**decades
+    peaks = np.nanmax(v, axis=1)
     cols = colours(len(labels))
     for ax, log in zip(axes, (False, True), strict=True):
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
         ax.set_thetamin(-90)
         ax.set_thetamax(90)
-        r_of = (lambda x: _log_radius(x, floor)) if log else (lambda x: x)
         for k, lab in enumerate(labels):
-            ax.plot(t, r_of(v[k]), color=cols[k], lw=1.6, label=lab)
-        rmax = float(decades) if log else vmax * 1.08
+            if log:
+                r = _log_radius(v[k], floor)
+            else:  # several: each curve over its own maximum, so a sharp lobe does not hide the others
+                r = v[k] / (peaks[k] if several and peaks[k] > 0 else 1.0)
+            name = f"{lab} (max {peaks[k]:.3g})" if several else lab
+            ax.plot(t, r, color=cols[k], lw=1.6, label=name, **line_style(k))
+        rmax = float(decades) if log else (1.08 if several else vmax * 1.08)
         ax.set_rlim(0, rmax)
         ax.plot([np.radians(theta_i)] * 2, [0, rmax], "k--", lw=0.9, label=f"mirror direction (+{theta_i:g}°)")
         ax.annotate("", xy=(0, 0), xytext=(np.radians(-theta_i), rmax * 0.95),
@@ -83,62 +108,61 @@ def polar_figure(theta_o: np.ndarray, values: np.ndarray, labels: list[str], the
             ax.tick_params(axis="y", labelsize=6.5)
             title = f"{quantity}, log scale ({decades} decades), θ_i = {theta_i:g}°"
         else:
-            title = f"{quantity}, linear, θ_i = {theta_i:g}°"
+            title = f"{quantity} / its maximum" if several else quantity
+            title += f", linear, θ_i = {theta_i:g}°"
             ax.tick_params(axis="y", labelsize=7)
         ax.text(0.0, rmax * 1.24, title, ha="center", va="bottom", fontsize=10)
         ax.set_thetagrids(range(-90, 91, 30), fontsize=8)
     handles, names = axes[0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="lower center", fontsize=8, ncol=min(len(names), 4), frameon=False)
-    fig.subplots_adjust(left=0.04, right=0.98, top=1.02, bottom=0.1 + 0.04 * ((len(names) - 1) // 4), wspace=0.15)
+    ncol = 2 if len(names) > 2 else len(names)
+    fig.legend(handles, names, loc="lower center", fontsize=8, ncol=ncol, frameon=False, handlelength=3.0,
+               bbox_to_anchor=(0.5, 0.0))
+    legend_rows = (len(names) + ncol - 1) // ncol
+    fig.subplots_adjust(left=0.06, right=0.94, top=1.0, bottom=-0.12 + 0.065 * legend_rows, wspace=0.25)
     return fig
 
 
 def lobe_figure(lobe: Lobe, labels: list[str], theta_i: float, phi_i: float = 0.0):
     """3D lobe: the surface r(ω_o) = f·cos θ_o ω_o (the reflected-radiance lobe), ω_i and the normal drawn.
 
-    Several BSDFs are overlaid as wireframes, each scaled to its own maximum (given in the legend), so that
-    a sharp lobe does not flatten the others.
+    Several BSDFs are drawn side by side (small multiples, one shaded surface each, the same view), each scaled to
+    its own maximum (given in its title): overlaid wireframes tangled into one another.
     """
-    plt = _plt()
-    fig = plt.figure(figsize=(6.4, 5.6))
-    ax = fig.add_subplot(projection="3d")
-    r = lobe.values * np.cos(np.radians(lobe.theta_o_deg))[None, :, None]
-    peaks = np.nanmax(r.reshape(len(r), -1), axis=1)
-    if len(labels) > 1:
-        r = r / np.where(peaks > 0, peaks, 1.0)[:, None, None]
-    cols = colours(len(labels))
-    rmax = float(np.nanmax(r)) if np.nanmax(r) > 0 else 1.0
-    for k, lab in enumerate(labels):
-        xyz = lobe.directions * r[k][..., None]
-        if len(labels) == 1:
-            import matplotlib
+    import matplotlib
 
-            shade = matplotlib.colormaps["viridis"](r[k] / rmax)
-            ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=shade, rstride=1, cstride=2,
-                            linewidth=0.2, edgecolor=(0, 0, 0, 0.15), shade=False)
-        else:
-            ax.plot_wireframe(xyz[..., 0], xyz[..., 1], xyz[..., 2], color=cols[k], lw=0.8, rstride=3, cstride=4,
-                              label=f"{lab} (max {peaks[k]:.3g})")
+    plt = _plt()
+    k = len(labels)
+    cols = min(k, 3)
+    rows = (k + cols - 1) // cols
+    fig = plt.figure(figsize=(6.4 if k == 1 else 3.7 * cols, (5.6 if k == 1 else 3.6 * rows) + 0.3))
+    r_all = lobe.values * np.cos(np.radians(lobe.theta_o_deg))[None, :, None]
+    peaks = np.nanmax(r_all.reshape(k, -1), axis=1)
     ti, pi = np.radians(theta_i), np.radians(phi_i)
-    wi = np.array([np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi), np.cos(ti)]) * rmax
-    ax.plot([0, wi[0]], [0, wi[1]], [0, wi[2]], color="0.3", lw=1.5, ls="--")
-    ax.text(*(wi * 1.05), "ω_i", color="0.3")
-    ax.plot([0, 0], [0, 0], [0, rmax], color="k", lw=0.8)
-    ax.text(0, 0, rmax * 1.05, "n", color="k")
-    ax.set_xlim(-rmax, rmax)
-    ax.set_ylim(-rmax, rmax)
-    ax.set_zlim(0, rmax)
-    ax.set_box_aspect((2, 2, 1))
-    ax.view_init(elev=20, azim=-70)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
-    ax.set_zlabel("z (normal)")
-    ax.tick_params(labelsize=7)
-    if len(labels) > 1:
-        ax.legend(fontsize=8, loc="upper left")
-    ax.set_title(("3D lobes: radius f·cos θ_o / max" if len(labels) > 1 else "3D lobe: radius f·cos θ_o (Y)")
-                 + f" for θ_i = {theta_i:g}°" + (f", φ_i = {phi_i:g}°" if phi_i else ""),
-                 fontsize=10)
+    wi_dir = np.array([np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi), np.cos(ti)])
+    for i, lab in enumerate(labels):
+        ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
+        r = r_all[i] / (peaks[i] if peaks[i] > 0 else 1.0)
+        xyz = lobe.directions * r[..., None]
+        shade = matplotlib.colormaps["viridis"](np.clip(r, 0.0, 1.0))
+        ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=shade, rstride=1, cstride=2,
+                        linewidth=0.2, edgecolor=(0, 0, 0, 0.15), shade=False)
+        ax.plot([0, wi_dir[0]], [0, wi_dir[1]], [0, wi_dir[2]], color="0.3", lw=1.5, ls="--")
+        ax.text(*(wi_dir * 1.05), "ω_i", color="0.3")
+        ax.plot([0, 0], [0, 0], [0, 1.0], color="k", lw=0.8)
+        ax.text(0, 0, 1.05, "n", color="k")
+        ax.set_xlim(-1, 1)
+        ax.set_ylim(-1, 1)
+        ax.set_zlim(0, 1)
+        ax.set_box_aspect((2, 2, 1))
+        ax.view_init(elev=20, azim=-70)
+        ax.tick_params(labelsize=6)
+        if k == 1:
+            ax.set_xlabel("x")
+            ax.set_ylabel("y")
+            ax.set_zlabel("z (normal)")
+        ax.set_title(wrapped(f"{lab} (max {peaks[i]:.3g})", 34), fontsize=8 if k > 1 else 9)
+    fig.suptitle(("3D lobes: radius f·cos θ_o / its maximum" if k > 1 else "3D lobe: radius f·cos θ_o / max")
+                 + f", θ_i = {theta_i:g}°" + (f", φ_i = {phi_i:g}°" if phi_i else ""), fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -184,9 +208,10 @@ def albedo_figure(alb: Albedo, labels: list[str]):
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     cols = colours(len(labels))
     for k, lab in enumerate(labels):
-        ax.plot(alb.theta_deg, alb.quadrature[k], "-", color=cols[k], lw=1.5, label=f"{lab}")
-        ax.errorbar(alb.theta_deg, alb.monte_carlo[k], yerr=2 * alb.mc_stderr[k], fmt="o", ms=3, color=cols[k],
-                    capsize=2, lw=0.8)
+        st = line_style(k)
+        ax.plot(alb.theta_deg, alb.quadrature[k], color=cols[k], lw=1.5, label=f"{lab}", ls=st["ls"])
+        ax.errorbar(alb.theta_deg, alb.monte_carlo[k], yerr=2 * alb.mc_stderr[k], fmt=MARKERS[1 + k % 5], ms=3,
+                    color=cols[k], capsize=2, lw=0.8)
     ax.axhline(1.0, color="k", lw=0.6, ls="--")
     top = max(1.05, float(np.nanmax(alb.quadrature)) * 1.05)
     ax.set_ylim(0, top)
@@ -224,7 +249,7 @@ def sphere_figure(images: dict[str, list[np.ndarray]], labels: list[str], outlin
             ax.set_xticks([])
             ax.set_yticks([])
             if r == 0:
-                ax.set_title(labels[c], fontsize=8)
+                ax.set_title(wrapped(labels[c], 26), fontsize=8)
             if c == 0:
                 ax.set_ylabel(light, fontsize=9)
     fig.tight_layout()

@@ -22,7 +22,7 @@ from brdflab.scene.shapes import uv_sphere, write_obj
 #: The lights of :func:`render_spheres`, in display order.
 LIGHTS = ("point light", "environment")
 #: Samples per pixel of each light relative to the requested count (the sky needs more than the point light).
-SPP_FACTOR = {"point light": 1, "environment": 4}
+SPP_FACTOR = {"point light": 1, "environment": 16}  # the sky is noisy at 4x: 256 spp by default
 #: Camera distance and field of view of the scenes.
 DISTANCE, FOV = 4.3, 30.0
 
