@@ -49,13 +49,18 @@ class FitResult:
     nodes: int
     evaluations: int
     starts: list = field(default_factory=list)
+    uncertainty: dict = field(default_factory=dict)
+    """Standard error of each fitted parameter (a colour: per channel) from the Jacobian at the optimum,
+    s²·(JᵀJ)⁻¹ with s² = Σ r²/(m − n); None for a parameter at a bound (the linear approximation fails there)."""
 
     def to_dict(self) -> dict:
         """Plain-dict form (colours as lists)."""
         p = {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in self.params.items()}
         return {"model": self.model, "params": p, "loss": self.loss, "rms": self.rms,
                 "relative_error": self.relative_error, "nodes": self.nodes, "evaluations": self.evaluations,
-                "starts": self.starts}
+                "starts": self.starts,
+                "uncertainty": {k: (np.asarray(v).tolist() if v is not None else None)
+                                for k, v in self.uncertainty.items()}}
 
     def summary(self) -> str:
         """One line: the parameters and the residual."""
@@ -135,8 +140,8 @@ def _model_call(model: str, params: dict, fn):
 
 #: Node strides of the command line's ``--effort`` levels.
 EFFORT_STRIDES = {"quick": (4, 6, 12), "normal": STRIDE, "full": (1, 2, 3)}
-#: What ``fit(..., output=DIR)`` writes into DIR.
-FIT_FILES = ("fit.html", "fit.json", "fit_slices.png")
+#: What ``fit(..., output=DIR)`` writes into DIR (:mod:`brdflab.pages.fit_page`).
+FIT_FILES = ("fit.html", "fit.json", "fit_slices.png", "fit_polar.png", "fit_albedo.png", "fit_sphere.png")
 
 
 def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict | None = None,
@@ -288,15 +293,37 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     _check_values(model, params, fm)
     rel = float(np.sum(np.abs(fm - f_meas) * cc[:, None]) / max(np.sum(f_meas * cc[:, None]), 1e-300))
     rms = float(math.sqrt(2 * best.cost / best.fun.size))
-    result = FitResult(model, params, loss, rms, rel, int(len(wi)), evaluations[0], tried)
+    result = FitResult(model, params, loss, rms, rel, int(len(wi)), evaluations[0], tried,
+                       _uncertainty(best, layout, lo_a, hi_a))
     if output is not None:
         from brdflab.bsdf.measured import measured_values
         from brdflab.outputs import record_outputs
 
         name = Path(measured).name if isinstance(measured, str | Path) else "the table"
+        from brdflab.pages.fit_page import write_fit_page
+
         write_fit_page(Path(output), measured_values(table), result, title=f"brdflab fit — {name} as {model}")
         record_outputs(Path(output), list(FIT_FILES))
     return result
+
+
+def _uncertainty(sol, layout: list[tuple[str, int]], lo: np.ndarray, hi: np.ndarray) -> dict:
+    """Standard errors of the free parameters at the optimum ``sol`` (see :attr:`FitResult.uncertainty`)."""
+    m, n = sol.jac.shape
+    out: dict = {}
+    if m <= n:
+        return {k: None for k, _ in layout}
+    s2 = 2.0 * sol.cost / (m - n)
+    cov = s2 * np.linalg.pinv(sol.jac.T @ sol.jac)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    span = hi - lo
+    at_bound = (np.abs(sol.x - lo) < 1e-6 * span) | (np.abs(hi - sol.x) < 1e-6 * span)
+    i = 0
+    for k, width in layout:
+        block = slice(i, i + width)
+        out[k] = None if at_bound[block].any() else (se[block].copy() if width == 3 else float(se[i]))
+        i += width
+    return out
 
 
 def _key_values(items: Sequence[str]) -> dict[str, str]:
@@ -323,51 +350,3 @@ def _check_values(model: str, params: dict, fm: np.ndarray) -> None:
         kind = "NaN or infinite" if (~np.isfinite(fm)).any() else "negative"
         raise BrdflabError(f"fit: model '{clean(model, 40)}' returned {kind} f at {int(bad.any(axis=1).sum())} of "
                            f"{len(fm)} data nodes (at {clean(shown, 100)}); a BSDF's eval must be finite and ≥ 0")
-
-
-def write_fit_page(out: Path, measured_table: np.ndarray, result: FitResult, title: str = "brdflab fit",
-                   phi_d: float = 90.0) -> Path:
-    """``fit.html``, ``fit.json`` and the θh × θd views (measured | model | log₁₀ ratio) into ``out``."""
-
-    import matplotlib.pyplot as plt
-
-    from brdflab.bsdf.measured import Measured
-    from brdflab.outputs import json_text, write_text
-    from brdflab.pages import page as html
-    from brdflab.plugins import make_bsdf
-    from brdflab.viz import views
-    from brdflab.viz.mpl import safe_figures
-
-    safe_figures()
-    out.mkdir(parents=True, exist_ok=True)
-    meas = Measured(table=measured_table)
-    model = make_bsdf(result.model, result.params)
-    _, _, sv = views.half_diff_slice([meas, model], phi_d, n=90)
-    lg = np.log10(np.where(sv > 0, sv, np.nan))
-    top = float(np.nanmax(lg)) if np.isfinite(lg).any() else 0.0
-    ratio = np.where((lg[0] > top - 5) | (lg[1] > top - 5), lg[1] - lg[0], np.nan)  # where either carries light
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), constrained_layout=True)
-    for ax, img, name in ((axes[0], lg[0], "measured: log₁₀ f"), (axes[1], lg[1], f"{result.model} (fit): log₁₀ f")):
-        im = ax.imshow(img, origin="lower", extent=(0, 90, 0, 90), vmin=top - 5, vmax=top, cmap="magma")
-        ax.set_title(name)
-        ax.set_xlabel("θh [°]")
-        ax.set_ylabel("θd [°]")
-        fig.colorbar(im, ax=ax, shrink=0.85)
-    # colour range: the residual's 95th percentile, between 0.05 and 2 decades (beyond: saturated)
-    lim = float(np.clip(np.nanpercentile(np.abs(ratio), 95), 0.05, 2.0)) if np.isfinite(ratio).any() else 1.0
-    im = axes[2].imshow(ratio, origin="lower", extent=(0, 90, 0, 90), vmin=-lim, vmax=lim, cmap="RdBu_r")
-    axes[2].set_title("residual: log₁₀(model / measured) where f > 10⁻⁵ max")
-    axes[2].set_xlabel("θh [°]")
-    fig.colorbar(im, ax=axes[2], shrink=0.85)
-    fig.suptitle(f"θh × θd at φd = {phi_d:g}°", fontsize=10)
-    png = out / "fit_slices.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
-    write_text(out / "fit.json", json_text(result.to_dict(), indent=2))
-    rows = [[k, _fmt(v)] for k, v in result.params.items()]
-    body = (html.section("Fitted parameters", html.table(["parameter", "value"], rows)
-                         + html.esc_p(result.summary()))
-            + html.section("Measured, model and residual", html.image_row([(png, "θh × θd slices")], cls="plot")))
-    path = out / "fit.html"
-    write_text(path, html.page(title, body))
-    return path
