@@ -110,10 +110,12 @@ def trial(t: int, scene: Path, integ: str, res, args, cache: RenderCache, stats_
     if t < args.other_trials:
         user[other] = cache(RenderJob(scene, other, args.spp, run_seed(t, 1, "report"), res, args.workers))[0]
     t0 = time.perf_counter()
-    first = run_check([user["another seed"]], scene, integ, 32, 4, seed=1000 + t, workers=args.workers,
-                      resolution=res, user_spp=args.spp, map_fn=cache.map)
+    first = run_check([user["another seed"]], scene, integ, args.brdflab_spp, args.runs, seed=1000 + t,
+                      workers=args.workers, resolution=res, user_spp=args.spp, map_fn=cache.map)
     stats_["check_seconds"].append(time.perf_counter() - t0)
-    estimate = Estimate.from_runs(list(first.runs), run_spp=32)  # the same runs for every variant
+    # the same runs for every variant (one run: its mean image and the single-render variance model)
+    estimate = Estimate.from_runs(list(first.runs) if first.runs is not None else [first.estimate],
+                                  run_spp=args.brdflab_spp)
     line = [f"trial {t:3d}:"]
     for name, img in user.items():
         r = first if name == "another seed" else check_images([img], estimate, user_spp=args.spp)
@@ -133,7 +135,7 @@ def summarize(scene: Path, integ: str, res, args, st: dict) -> dict:
     """Print and return the false-alarm rates (exact 95 % intervals), power and cost of one scene."""
     n = len(st["mdb"])
     summary = {"scene": str(scene), "integrator": integ, "resolution": res, "trials": n, "user_spp": args.spp,
-               "brdflab_runs": f"4 × 32 spp {integ}", "false_alarms": {}, "power": {},
+               "brdflab_runs": f"{args.runs} × {args.brdflab_spp} spp {integ}", "false_alarms": {}, "power": {},
                "median_check_seconds": statistics.median(st["check_seconds"]),
                "median_min_detectable_bias": statistics.median(st["mdb"]),
                "median_min_detectable_block_bias": statistics.median(st["mdbb"])}
@@ -153,7 +155,8 @@ def summarize(scene: Path, integ: str, res, args, st: dict) -> dict:
           f"{100 * summary['median_min_detectable_bias']:.2f} %, one block "
           f"{100 * summary['median_min_detectable_block_bias']:.1f} %")
     if not args.cache:
-        print(f"median check time (4 × 32 spp + tests): {summary['median_check_seconds']:.1f} s (shared machine)")
+        print(f"median check time ({args.runs} × {args.brdflab_spp} spp + tests): "
+              f"{summary['median_check_seconds']:.1f} s (shared machine)")
     return summary
 
 
@@ -165,6 +168,8 @@ def main() -> int:
     ap.add_argument("--scene", type=Path, action="append",
                     help="scene (repeatable; trials alternate between scenes); default the course Cornell box")
     ap.add_argument("--spp", type=int, default=64, help="user renders' spp (default 64)")
+    ap.add_argument("--runs", type=int, default=4, help="brdflab's runs (the command's --runs; default 4, least 2)")
+    ap.add_argument("--brdflab-spp", type=int, default=32, help="spp of each brdflab run (the command's --spp)")
     ap.add_argument("--other-trials", type=int, default=5,
                     help="trials that also check a render by another unbiased integrator (default 5)")
     ap.add_argument("--cache", type=Path, help="keep renders here (.npy) and reuse them: re-evaluating the "
@@ -182,8 +187,8 @@ def main() -> int:
         res = (max(16, round(cam.width * scale)), max(16, round(cam.height * scale)))
         setup.append((scene, sc.integrator_type, res, {"unbiased": {}, "detected": {}, "mdb": [], "mdbb": [],
                                                        "check_seconds": []}))
-        print(f"scene {scene}, {res[0]}×{res[1]}, user renders {args.spp} spp, brdflab 4 × 32 spp "
-              f"{sc.integrator_type}, {args.trials} trials", flush=True)
+        print(f"scene {scene}, {res[0]}×{res[1]}, user renders {args.spp} spp, brdflab {args.runs} × "
+              f"{args.brdflab_spp} spp {sc.integrator_type}, {args.trials} trials", flush=True)
     for t in range(args.trials):
         for scene, integ, res, st in setup:
             print(f"{scene.stem:14s} " + trial(t, scene, integ, res, args, cache, st), flush=True)
