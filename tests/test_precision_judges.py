@@ -179,3 +179,23 @@ def test_an_unexplained_weight_residual_is_said(tmp_path):
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
     ratio = 1.0 + 0.5 * np.sin(7 * wo[:, 0])  # no usual bug looks like this
     assert weight_hint(ratio, np.array([0.0, 0.0, 1.0]), wo, None).startswith("unexplained")
+
+
+def test_a_column_within_a_few_percent_of_brdflabs_names_no_bug():
+    """A visible-normal sampler near normal incidence has a density within ~1 % of brdflab's; 'an extra factor
+    cos θo' (≈ 0.99 there) matched and the correct file was called wrong. A real extra cos θo is still named."""
+    import brdflab as bl
+    from brdflab.judges.samples.bsdf_hints import pdf_identity
+
+    rng = np.random.default_rng(6)
+    b = bl.RoughConductor(R0=0.9, alpha=0.05)
+    wi1 = np.array([np.sin(np.radians(7)), 0.0, np.cos(np.radians(7))])
+    wi = np.tile(wi1, (4000, 1))
+    s = b.sample(wi, rng.random((4000, 3)))
+    ok = (s.pdf > 0) & (s.wo[:, 2] > 0)
+    wo, ours = s.wo[ok], s.pdf[ok]
+    assert pdf_identity(ours * wo[:, 2], ours, wi1, wo, b, True) == ""  # cos θo ≈ 0.99: indistinguishable
+    broad = bl.RoughConductor(R0=0.9, alpha=0.6)
+    s = broad.sample(np.tile(wi1, (4000, 1)), rng.random((4000, 3)))
+    ok = (s.pdf > 0) & (s.wo[:, 2] > 0)
+    assert "extra factor cos θo" in pdf_identity(s.pdf[ok] * s.wo[ok, 2], s.pdf[ok], wi1, s.wo[ok], broad, True)

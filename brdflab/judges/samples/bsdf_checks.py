@@ -322,7 +322,8 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             if not g.sc.passed and not g.sc.blind:
                 fixes = hints.pdf_corrections(binning, fp, wi1, wo_n[cmp], kind == "bsdf", g.sc.mass_ratio, thr)
                 g.pdf_fixes = [t for t, _ in fixes]
-            if g.sc.passed:
+            g.pdf = _column_check("pdf", fp, ours[cmp], lines[cmp], wo_n[cmp], g.pdf_identity)
+            if g.sc.passed or (g.pdf.passed and g.chi2.passed):  # self-consistent, or brdflab's pdf itself
                 p_true = fp
             elif g.pdf_identity and g.chi2.passed:
                 p_true = ours[cmp]
@@ -330,7 +331,6 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
                 p_true = fp * fixes[0][1]
             elif g.chi2.passed:
                 p_true = ours[cmp]
-            g.pdf = _column_check("pdf", fp, ours[cmp], lines[cmp], wo_n[cmp], g.pdf_identity)
             if not g.pdf.passed and fit is not None and kind == "bsdf" and not g.pdf_bug:
                 make_p, defaults, given = fit  # a parameter of the pdf left at its default (say intIOR)
                 g.warnings = hints.fit_defaults(make_p, defaults, given, wi1, wo_n[cmp], fp, fp, column="pdf")
