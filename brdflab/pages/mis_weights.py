@@ -49,7 +49,8 @@ def mis_weight_image(scene_path: Path, spec: str, spp: int = 64, seed: int = 0, 
 
 
 def write_weight_image(path: Path, share: np.ndarray, title: str = "") -> None:
-    """Blue where emitter samples carry the estimate, red where BSDF samples do (grey: undefined)."""
+    """Blue where emitter samples carry the estimate, red where BSDF samples do, near-white half and half; black
+    where no light arrives (undefined) — grey there read as "50/50"."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -60,11 +61,12 @@ def write_weight_image(path: Path, share: np.ndarray, title: str = "") -> None:
 
     h, w = share.shape
     fig, ax = plt.subplots(figsize=(5.2, 5.2 * h / w + 0.5), dpi=100)
-    ax.set_facecolor("0.6")
-    im = ax.imshow(share, cmap="coolwarm_r", vmin=0, vmax=1)
+    cmap = matplotlib.colormaps["coolwarm_r"].with_extremes(bad="black")
+    im = ax.imshow(np.ma.masked_invalid(share), cmap=cmap, vmin=0, vmax=1, interpolation="nearest")
     ax.set_axis_off()
     ax.set_title(title, fontsize=9)
-    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02, label="share from emitter samples (1 = all)")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02,
+                 label="emitter samples' share (black: no light)")
     fig.tight_layout()
     _atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
     plt.close(fig)
