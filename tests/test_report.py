@@ -77,3 +77,5 @@ def test_report_in_browser(report_dir):
     assert result["renders"] >= 4 and result["zoomed"] == result["renders"]
     # A/B flip: every non-reference render of the equal-spp and equal-time rows swaps with the reference and back.
     assert result["flippable"] >= 6 and result["flipped"] == result["restored"] == result["flippable"]
+    # tev-style controls (issue 43): the exposure slider acts on the renders, the pixel read-out reads them
+    assert result["exposure"] == 1 and result["readout"] == 1, result
