@@ -11,7 +11,9 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.render(scene, spp, seed, workers)``   the (H, W, 3) float32 image (``return_stats=True``: also the stats)
 ``bl.read_exr``, ``bl.write_exr``          linear RGB OpenEXR files
 ``bl.Diffuse``, ``bl.RoughConductor``,     the materials, with keyword parameters named as in scene files
-``bl.RoughSubstrate``, ``bl.Measured``      (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`)
+``bl.RoughSubstrate``, ``bl.Measured``,    (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`;
+``bl.Mirror``, ``bl.Dielectric``           ``Mirror`` and ``Dielectric`` are delta BSDFs, ``Dielectric``
+                                           transmits: :mod:`brdflab.bsdf.base`)
 ``bl.fit(measured, model)``                least-squares fit of a model's parameters to a measured BRDF
 ``bl.BSDF``, ``bl.BSDFSample``             the contract a user's material implements (:mod:`brdflab.bsdf.base`)
 ``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
@@ -47,6 +49,8 @@ _EXPORTS = {
     "Diffuse": "brdflab.bsdf.diffuse:Diffuse",
     "RoughConductor": "brdflab.bsdf.roughconductor:RoughConductor",
     "RoughSubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
+    "Mirror": "brdflab.bsdf.mirror:Mirror",
+    "Dielectric": "brdflab.bsdf.dielectric:Dielectric",
     "register_bsdf": "brdflab.plugins:register_bsdf",
     "load_plugin": "brdflab.plugins:load_plugin",
     "make_bsdf": "brdflab.plugins:make_bsdf",

@@ -10,6 +10,8 @@ BUILTIN: dict[str, dict[str, str]] = {
         "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
         "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
         "measured": "brdflab.bsdf.measured:Measured",
+        "mirror": "brdflab.bsdf.mirror:Mirror",
+        "dielectric": "brdflab.bsdf.dielectric:Dielectric",
     },
     "emitter": {
         "area": "brdflab.emitter.area:AreaEmitter",
@@ -24,9 +26,9 @@ BUILTIN: dict[str, dict[str, str]] = {
         "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
     },
 }
-#: Nori plugins brdflab deliberately leaves out (no path tracing, no delta BSDFs).
+#: Nori plugins brdflab deliberately leaves out.
 UNSUPPORTED = {
-    "bsdf": ("mirror", "dielectric", "roughdielectric"),
+    "bsdf": ("roughdielectric",),
     "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
 }
 

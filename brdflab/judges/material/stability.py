@@ -110,7 +110,7 @@ def _row(mname: str, cname: str, bsdf, wi: np.ndarray, wo: np.ndarray, u: np.nda
         f = proxy._call("eval", wi, wo, None)
         p = proxy._call("pdf", wi, wo, None)
         s = proxy._call("sample", wi, u, None)
-        swo, sw, sp = s
+        swo, sw, sp = s[:3] if isinstance(s, tuple) and len(s) == 4 else s  # delta (4th field) may be None
         out = {"eval": f, "pdf": p, "sample.wo": swo, "sample.weight": sw, "sample.pdf": sp}
         out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
     except PluginFault as fault:
