@@ -12,8 +12,8 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.read_exr``, ``bl.write_exr``          linear RGB OpenEXR files
 ``bl.Diffuse``, ``bl.RoughConductor``,     the materials, with keyword parameters named as in scene files
 ``bl.RoughSubstrate``, ``bl.Measured``,    (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`;
-``bl.Mirror``, ``bl.Dielectric``           ``Mirror`` and ``Dielectric`` are delta BSDFs, ``Dielectric``
-                                           transmits: :mod:`brdflab.bsdf.base`)
+``bl.Mirror``, ``bl.Dielectric``,          ``Mirror`` and ``Dielectric`` are delta BSDFs, ``Dielectric`` and
+``bl.RoughDielectric``                     ``RoughDielectric`` transmit: :mod:`brdflab.bsdf.base`)
 ``bl.fit(measured, model)``                least-squares fit of a model's parameters to a measured BRDF
 ``bl.BSDF``, ``bl.BSDFSample``             the contract a user's material implements (:mod:`brdflab.bsdf.base`)
 ``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
@@ -51,6 +51,7 @@ _EXPORTS = {
     "RoughSubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
     "Mirror": "brdflab.bsdf.mirror:Mirror",
     "Dielectric": "brdflab.bsdf.dielectric:Dielectric",
+    "RoughDielectric": "brdflab.bsdf.roughdielectric:RoughDielectric",
     "register_bsdf": "brdflab.plugins:register_bsdf",
     "load_plugin": "brdflab.plugins:load_plugin",
     "make_bsdf": "brdflab.plugins:make_bsdf",

@@ -12,6 +12,7 @@ BUILTIN: dict[str, dict[str, str]] = {
         "measured": "brdflab.bsdf.measured:Measured",
         "mirror": "brdflab.bsdf.mirror:Mirror",
         "dielectric": "brdflab.bsdf.dielectric:Dielectric",
+        "roughdielectric": "brdflab.bsdf.roughdielectric:RoughDielectric",
     },
     "emitter": {
         "area": "brdflab.emitter.area:AreaEmitter",
@@ -28,7 +29,7 @@ BUILTIN: dict[str, dict[str, str]] = {
 }
 #: Nori plugins brdflab deliberately leaves out.
 UNSUPPORTED = {
-    "bsdf": ("roughdielectric",),
+    "bsdf": (),
     "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
 }
 

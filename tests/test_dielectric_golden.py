@@ -16,7 +16,7 @@ from brdflab.bsdf.fresnel import dielectric_refraction, fresnel_dielectric
 from brdflab.plugins import make_bsdf
 from brdflab.scene.loader import load_scene
 from tests.conftest import CAMERA, QUAD_OBJ, write_scene
-from tests.test_golden import ref_fresnel
+from tests.test_golden import dotm, ref_d, ref_fresnel, ref_g1
 
 mp.mp.dps = 40
 
@@ -101,7 +101,56 @@ def test_flags_and_old_contract():
     """The contract's class attributes; an old-style 3-field BSDFSample still works (delta None)."""
     assert bl.Mirror.all_delta and not bl.Mirror.two_sided and not bl.Mirror.has_transmission
     assert bl.Dielectric.all_delta and bl.Dielectric.two_sided and bl.Dielectric.has_transmission
+    assert not bl.RoughDielectric.has_delta and bl.RoughDielectric.has_transmission
     assert not bl.Diffuse.has_delta and not bl.Diffuse.two_sided and bl.BSDFSample(1, 2, 3).delta is None
+
+
+def ref_g1_sphere(v, h, a):
+    """Rational Smith G1 (§11.1) for v on either side: χ⁺((v·h)/v_z), b = 1/(α tan θ_v) with tan θ_v ≥ 0 from
+    |v_z| (tests/test_golden.py's ref_g1 is the upper hemisphere's)."""
+    if dotm(v, h) / v[2] <= 0:
+        return mp.mpf(0)
+    return ref_g1([v[0], v[1], abs(v[2])], [0, 0, 1], a)
+
+
+def ref_rough_dielectric(wi, wo, a, ext, int_):
+    """Walter et al. 2007 eqs. 20–21 in mpmath (radiance form, η of ω_i's side squared), two-sided."""
+    wi, wo = [mp.mpf(float(x)) for x in wi], [mp.mpf(float(x)) for x in wo]
+    ei, et = (mp.mpf(ext), mp.mpf(int_)) if wi[2] >= 0 else (mp.mpf(int_), mp.mpf(ext))
+    if wi[2] < 0:
+        wi, wo = [wi[0], wi[1], -wi[2]], [wo[0], wo[1], -wo[2]]
+    if wo[2] > 0:
+        h = [wi[k] + wo[k] for k in range(3)]
+    else:
+        h = [-(ei * wi[k] + et * wo[k]) for k in range(3)]
+    n = mp.sqrt(dotm(h, h)) * (1 if h[2] > 0 else -1)
+    h = [x / n for x in h]
+    ih, oh = dotm(wi, h), dotm(wo, h)
+    F = ref_fresnel(ih, ei, et)  # flipped frame: ω_i·ω_h > 0 is on the side of index η_i
+    G = ref_g1_sphere(wi, h, a) * ref_g1_sphere(wo, h, a)
+    D = ref_d(h[2], a)
+    if wo[2] > 0:
+        return F * D * G / (4 * wi[2] * wo[2])
+    if ih <= 0 or oh >= 0:
+        return mp.mpf(0)
+    return abs(ih) * abs(oh) * ei ** 2 * (1 - F) * D * G / (abs(wi[2]) * abs(wo[2]) * (ei * ih + et * oh) ** 2)
+
+
+@pytest.mark.parametrize("alpha", [0.05, 0.3, 0.8])
+def test_rough_dielectric_against_mpmath(alpha):
+    """f of RoughDielectric against the mpmath transcription of Walter et al. on random pairs of the sphere
+    (both sides, reflection and transmission), relative 1e-10."""
+    rng = np.random.default_rng(44)
+    wi = bl.warps.square_to_uniform_sphere(rng.random((300, 2)))
+    wo = bl.warps.square_to_uniform_sphere(rng.random((300, 2)))
+    # and directions near the refracted and mirror ones, where f is large
+    g = bl.RoughDielectric(alpha=alpha, intIOR=1.5, extIOR=1.0)
+    s = g.sample(wi, rng.random((300, 3)))
+    wi, wo = np.concatenate([wi, wi]), np.concatenate([wo, s.wo])
+    got = g.eval(wi, wo)[:, 0]
+    ref = np.array([float(ref_rough_dielectric(a, b, mp.mpf(alpha), 1.0, 1.5)) for a, b in zip(wi, wo, strict=True)])
+    assert (ref > 0).sum() > 300
+    np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-300)
 
 
 @pytest.mark.filterwarnings("ignore:.*no emitter")
@@ -109,9 +158,12 @@ def test_built_from_xml_and_by_name(tmp_path):
     """Scene XML builds the three materials (ka as m_ka texture slot name too); names and defaults as §10."""
     g = make_bsdf("dielectric", {"intIOR": "1.33"})
     assert (g.int_ior, g.ext_ior) == (1.33, 1.000277)
+    r = make_bsdf("roughdielectric", {"ka": "0.5,0.6,0.7"}, alpha=0.2)
+    assert r.alpha_value == pytest.approx(0.2) and r.ka.value.tolist() == [0.5, 0.6, 0.7] and r.int_ior == 1.5046
     mesh = ('<mesh type="obj"><string name="filename" value="q.obj"/><bsdf type="{t}">{b}</bsdf></mesh>')
     body = "".join(mesh.format(t=t, b=b) for t, b in [
-        ("mirror", ""), ("dielectric", '<float name="intIOR" value="1.33"/>')])
+        ("mirror", ""), ("dielectric", '<float name="intIOR" value="1.33"/>'),
+        ("roughdielectric", '<float name="alpha" value="0.2"/><texture type="checker" name="m_ka"/>')])
     p = write_scene(tmp_path, '<integrator type="direct_ems"/>' + CAMERA + body, {"q.obj": QUAD_OBJ})
     kinds = [type(b).__name__ for b in load_scene(p).bsdfs]
-    assert {"Mirror", "Dielectric"} <= set(kinds)
+    assert {"Mirror", "Dielectric", "RoughDielectric"} <= set(kinds)

@@ -18,7 +18,7 @@ DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.judges.public", "b
                    "brdflab.judges.samples.tables", "brdflab.fitting", "brdflab.judges.samples.light_samples",
                    "brdflab.kernels", "brdflab.kernels.buffers"]
 #: Issue 44: the delta and transmissive materials.
-DOCTEST_MODULES += ["brdflab.bsdf.mirror", "brdflab.bsdf.dielectric",
+DOCTEST_MODULES += ["brdflab.bsdf.mirror", "brdflab.bsdf.dielectric", "brdflab.bsdf.roughdielectric",
                     "brdflab.bsdf.fresnel"]
 
 
