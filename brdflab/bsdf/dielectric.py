@@ -24,7 +24,7 @@ factor from ω_o's side (the light) to ω_i's (the camera) — is **(η_i/η_t)�
 enters and leaves the glass into air again (air → glass: (1/1.5)², glass → air: 1.5²), so the course's
 scenes have the same expectation either way, and ours is also right for a light or camera inside a medium.
 :meth:`Dielectric.eta_ratio` gives η_o/η_i, with which weight·(η_o/η_i)² is the transported energy:
-F·1 + (1 − F)·η²·η⁻² = 1 (the furnace of :mod:`brdflab.validate.delta`).
+F·1 + (1 − F)·η²·η⁻² = 1 (the furnace of :mod:`brdflab.judges.material.delta`).
 
 ``eval`` and ``pdf`` return 0 (delta lobes have measure zero); every sample has ``delta`` = True.
 """

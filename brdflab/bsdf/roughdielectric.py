@@ -138,6 +138,11 @@ class RoughDielectric(BSDF):
         """F(ω_i·ω_h) of the microfacet, the cosine measured against the exterior normal (s·ω_i·ω_h)."""
         return fresnel_dielectric(s * wih, self.ext_ior, self.int_ior)
 
+    def refraction(self, c: np.ndarray, wi_f: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(F, cos θ_t, η) of a microfacet for the sampler, c = ω_i·ω_h against the exterior normal (``wi_f``, ω_i in
+        the flipped frame, is for the judges' negative controls)."""
+        return dielectric_refraction(c, self.ext_ior, self.int_ior)
+
     def _terms(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None, need_f: bool,
                need_pdf: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
         """f and/or p of the same directions, sharing ω_h, D, F and the Jacobian."""
@@ -194,7 +199,7 @@ class RoughDielectric(BSDF):
         wi_f = wi * flip
         h = warps.square_to_beckmann(u[:, :2], a)
         wih = _dot(wi_f, h)
-        fr, cos_t, eta = dielectric_refraction(s * wih, self.ext_ior, self.int_ior)
+        fr, cos_t, eta = self.refraction(s * wih, wi_f)
         refl = u[:, 2] < fr
         wo_r = 2.0 * wih[:, None] * h - wi_f
         wo_t = -eta[:, None] * wi_f + (eta * wih - cos_t)[:, None] * h
