@@ -15,7 +15,7 @@ def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int,
     Returns ``theta_edges`` (n_theta + 1,) from 0 to π and ``phi_edges`` (n_theta, n_phi + 1) from 0 to 2π,
     both non-decreasing (a repeated edge is an empty bin of zero width). ``split_horizon`` (transmissive BSDFs,
     :func:`sphere_theta_edges`): the horizon θ = π/2 is an edge and each hemisphere gets its own quantile
-    strips, at least 2 each, so a lobe holding a few per cent of the mass (reflection off glass) never shares
+    strips, at least 4 each, so a lobe holding a few per cent of the mass (reflection off glass) never shares
     one wide strip with the rest of its hemisphere.
     """
     if split_horizon:
@@ -38,10 +38,10 @@ def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int,
 
 def sphere_theta_edges(theta: np.ndarray, n_theta: int) -> np.ndarray:
     """θ edges over the whole sphere with the horizon as an edge: k strips above at the quantiles of the pilot's
-    upper θ, n_theta − k below at those of its lower θ, k ∝ the upper share of the pilot (2 ≤ k ≤ n_theta − 2)."""
+    upper θ, n_theta − k below at those of its lower θ, k ∝ the upper share of the pilot (4 ≤ k ≤ n_theta − 4)."""
     up = theta[theta < np.pi / 2]
     dn = theta[theta >= np.pi / 2]
-    k = int(np.clip(round(n_theta * len(up) / max(len(theta), 1)), 2, max(n_theta - 2, 2)))
+    k = int(np.clip(round(n_theta * len(up) / max(len(theta), 1)), 4, max(n_theta - 4, 4)))
 
     def edges(x, a, b, m):
         if len(x) < 2 * m:

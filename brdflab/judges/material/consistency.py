@@ -13,7 +13,8 @@ For one incident direction ω_i (θ_i in the x–z plane) and N samples of the B
 * **Reciprocity**: f(ω_i, ω_o) = f(ω_o, ω_i) (relative 10⁻⁶) on random pairs of the upper hemisphere and
   on the sampled pairs (where f is large). Required unless the class declares ``reciprocal = False``;
   always reported. For a ``has_transmission`` BSDF the pairs cover the sphere and the radiance BTDF's
-  generalised form f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) is required (η_o/η_i from ``eta_ratio``), and the
+  generalised form f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) is required (η_o/η_i from ``eta_ratio``; relative to at
+  least 10⁻⁹ of the largest f compared, since 1 − F cancels near total internal reflection), and the
   weight is f·|cos θ_o|/p. A ``two_sided`` BSDF may be tested from inside (θ_i in [90°, 180°)).
 """
 
@@ -216,7 +217,12 @@ def _check(b: CheckedBSDF, name, theta, n, seed, params, rng, rng_mass, rng_rec)
     fac, fca = b.eval(A, C), b.eval(C, A)
     if transmits:  # the radiance BTDF: f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) (generalised reciprocity)
         fac = fac * (b.eta_ratio(A, C) ** 2)[:, None]
-    rec = _relerr(fac, fca).max(axis=1)
+        # relative to 10⁻⁹ of the largest f at least: 1 − F cancels near total internal reflection, where f → 0
+        floor = 1e-9 * float(max(fac.max(), fca.max(), 0.0)) if len(fac) else 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rec = (np.abs(fac - fca) / np.maximum(np.maximum(np.abs(fac), np.abs(fca)), max(floor, 1e-30))).max(axis=1)
+    else:
+        rec = _relerr(fac, fca).max(axis=1)
     if len(rec) and rec.max() > RECIPROCITY_RTOL:
         i = int(np.argmax(rec))
         what = "f(wi, wo)·(η_o/η_i)² ≠ f(wo, wi)" if transmits else "f(wi, wo) ≠ f(wo, wi)"
