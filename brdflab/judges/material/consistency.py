@@ -27,6 +27,7 @@ import numpy as np
 from brdflab.judges.core.guard import CheckedBSDF, PluginFault, bsdf_params, describe, format_params
 from brdflab.judges.core.seeding import bsdf_identity, test_seed
 from brdflab.judges.material.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
+from brdflab.judges.material.furnace import energy_scale
 from brdflab.math import warps
 
 WEIGHT_RTOL = 1e-5
@@ -216,7 +217,7 @@ def _check(b: CheckedBSDF, name, theta, n, seed, params, rng, rng_mass, rng_rec)
     A, C = np.concatenate([a, np.broadcast_to(wi1, sw.shape)]), np.concatenate([c, sw])
     fac, fca = b.eval(A, C), b.eval(C, A)
     if transmits:  # the radiance BTDF: f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) (generalised reciprocity)
-        fac = fac * (b.eta_ratio(A, C) ** 2)[:, None]
+        fac = fac * energy_scale(b, A, C)[:, None]
         # relative to 10⁻⁹ of the largest f at least: 1 − F cancels near total internal reflection, where f → 0
         floor = 1e-9 * float(max(fac.max(), fca.max(), 0.0)) if len(fac) else 0.0
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -33,6 +33,7 @@ import numpy as np
 from brdflab.bsdf.fresnel import fresnel_dielectric
 from brdflab.judges.core.guard import CheckedBSDF, PluginFault, bsdf_params, describe
 from brdflab.judges.material.chi2 import SIGNIFICANCE, Chi2Result, incident
+from brdflab.judges.material.furnace import energy_scale
 
 #: Tolerances of the exact checks (float64 round-off of a few operations is ~1e-16).
 DIRECTION_ATOL = 1e-9
@@ -216,7 +217,7 @@ def judge_samples(b, wi1: np.ndarray, wo: np.ndarray, weight: np.ndarray | None,
             i = int(np.argmax(w_err.max(axis=1)))
             problems.append(f"weight {w[i, 0]:.6g} ≠ {expect[i, 0]:.6g} ({'reflection' if is_r[i] else 'refraction'}"
                             f"; refraction weights {used})")
-        energy = w * (b.eta_ratio(np.broadcast_to(wi1, wo.shape), wo) ** 2)[:, None] if transmits else w
+        energy = w * energy_scale(b, np.broadcast_to(wi1, wo.shape), wo)[:, None] if transmits else w
         e_max = float(energy.max())
         if used == next(iter(CONVENTIONS)) and e_max > 1 + 1e-9 + weight_rtol:
             problems.append(f"weight·(η_o/η_i)² = {e_max:.6g} > 1: the material creates energy")

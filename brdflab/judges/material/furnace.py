@@ -169,7 +169,8 @@ def energy_scale(bsdf, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     fraction of the energy; the white furnace of such a material is reflection + transmission
     ∫ f |cos θ_o| (η_o/η_i)² dω_o ≤ 1 (= 1 for a smooth, lossless interface).
     """
-    return np.asarray(bsdf.eta_ratio(wi, wo), dtype=np.float64) ** 2
+    ratio = getattr(bsdf, "eta_ratio", None)  # a duck-typed plugin without it: one medium (1)
+    return np.ones(len(wi)) if ratio is None else np.asarray(ratio(wi, wo), dtype=np.float64) ** 2
 
 
 def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int | None = None,

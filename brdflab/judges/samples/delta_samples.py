@@ -1,13 +1,14 @@
 """A file of samples of a delta BSDF (``chi2 --samples FILE --against dielectric`` or ``mirror``), per ω_i group.
 
 A delta lobe has no density, so the self-consistency and chi-square tests of
-:mod:`brdflab.judges.samples.bsdf_checks` do not apply; the group is judged by :func:`brdflab.judges.material.delta.judge_samples` instead: every direction is the
-mirror or Snell's refraction (within 10⁻⁴: files are printed with a few digits), the reflected fraction against
-Fresnel's F by an exact binomial test, and — with weight columns — reflection weights 1 and refraction weights
-in one of the radiance-scale conventions that telescope along air–glass–air paths (brdflab's (η_i/η_t)², the
-course's η_t/η_i, or 1; the one the file uses is named). The pdf column is ignored (Nori's ``pdf()`` of a
-discrete lobe is 0, a sampler may write the lobe probability); a failed sample is a line with ω_o = 0 0 0 or
-with all weights 0.
+:mod:`brdflab.judges.samples.bsdf_checks` do not apply; the group is judged by
+:func:`brdflab.judges.material.delta.judge_samples` instead: every direction is the mirror or Snell's refraction
+(within 10⁻⁴: files are printed with a few digits), the reflected fraction against Fresnel's F by an exact
+binomial test, and — with weight columns — reflection weights 1 and refraction weights in one of the
+radiance-scale conventions that telescope along air–glass–air paths (brdflab's (η_i/η_t)², the course's
+η_t/η_i, or 1; the one the file uses is named). The pdf column is ignored (Nori's ``pdf()`` of a discrete lobe
+is 0, a sampler may write the lobe probability); a failed sample is a line with ω_o = 0 0 0 or with all
+weights 0.
 """
 
 from __future__ import annotations
