@@ -64,6 +64,7 @@ _EXPORTS = {
     "warp_chi2_test": "brdflab.judges:warp_chi2_test",
     "consistency_test": "brdflab.judges:consistency_test",
     "furnace_test": "brdflab.judges:furnace_test",
+    "delta_test": "brdflab.judges:delta_test",
     "stability_test": "brdflab.judges:stability_test",
     "run_battery": "brdflab.judges:run_battery",
     "emitter_checks": "brdflab.judges:emitter_checks",

@@ -176,3 +176,19 @@ def test_transmission_chi2_false_alarms():
     p = [c2.bsdf_test("rd", g, t, 10_000, seed=20_000 + 13 * s + int(t)).p_value
          for s in range(8) for t in (30.0, 150.0)]
     assert sum(x <= 0.01 for x in p) <= 1
+
+
+def test_public_api_on_glass_and_mirrors():
+    """bl.chi2_test routes a delta BSDF to the delta judge and takes θ_i up to 180° for a two-sided one; the
+    density-based checks refuse a delta BSDF with a failed verdict that names delta_test (never a pass)."""
+    from brdflab.errors import BrdflabError
+    from brdflab.judges.material.delta import DeltaResult
+
+    r = bl.chi2_test(bl.Dielectric(1.5, 1.0), theta=150.0, samples=10_000)
+    assert isinstance(r, DeltaResult) and r.passed, r.message
+    assert bl.chi2_test(bl.RoughDielectric(0.2, 1.5, 1.0), theta=150.0, samples=10_000).passed
+    with pytest.raises(BrdflabError, match="theta"):
+        bl.chi2_test(bl.RoughConductor(0.5, 0.2), theta=150.0, samples=10_000)
+    c = bl.consistency_test(bl.Mirror(), theta=30.0, samples=2_000)
+    f = bl.furnace_test(bl.Mirror(), thetas=(30.0,), samples=2_000)
+    assert not c.passed and not f.passed and "delta_test" in c.message and "delta_test" in f.message

@@ -213,6 +213,12 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
     b = CheckedBSDF(bsdf, name, params)
     s_quad, s_mc = np.random.SeedSequence(seed).spawn(2)
     phi = round(test_azimuth(seed), 3)  # the test's own azimuth: a sampler must rotate with ω_i
+    if getattr(bsdf, "all_delta", False):  # f is 0 by the contract: the delta judge checks its energy
+        p = AlbedoPoint(name, alpha, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), seed,
+                        params, fault="a delta BSDF (all_delta) has no f to integrate: its energy weight·(η_o/η_i)² "
+                        "is checked per sample by delta_test")
+        p.message = p.summary()
+        return p
     try:
         q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]), phi_deg=phi)
         m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]), phi_deg=phi)
