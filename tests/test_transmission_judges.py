@@ -156,8 +156,11 @@ def test_cli_validate_and_chi2(tmp_path):
 
     assert main(["chi2", "--bsdf", "roughdielectric", "--alpha", "0.1", "--theta", "45", "-n", "20000",
                  "-o", str(tmp_path / "c")]) == 0
-    assert main(["chi2", "--bsdf", "dielectric", "--theta", "30", "-n", "20000", "-o", str(tmp_path / "v")]) == 0
+    assert main(["chi2", "--bsdf", "dielectric", "--theta", "30", "--theta", "150", "-n", "20000",
+                 "-o", str(tmp_path / "v")]) == 0
     assert (tmp_path / "v" / "index.html").exists()
+    # from inside only for two-sided BSDFs: a usage error (exit 2) for a one-sided one
+    assert main(["chi2", "--bsdf", "roughconductor", "--theta", "150", "-o", str(tmp_path / "w")]) == 2
 
 
 def test_delta_false_alarms():
