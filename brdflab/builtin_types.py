@@ -25,12 +25,15 @@ BUILTIN: dict[str, dict[str, str]] = {
         "direct_mats": "brdflab.integrator.direct_mats:DirectMATS",
         "direct_mis": "brdflab.integrator.direct_mis:DirectMIS",
         "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
+        "path": "brdflab.integrator.path:PathBSDF",
+        "path_nee": "brdflab.integrator.path:PathNEE",
+        "path_mis": "brdflab.integrator.path:PathMIS",
     },
 }
 #: Nori plugins brdflab deliberately leaves out.
 UNSUPPORTED = {
     "bsdf": (),
-    "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
+    "integrator": ("depth", "vpl"),
 }
 
 

@@ -57,7 +57,7 @@ def test_transform_ops(tmp_path):
     [
         ("<integrator type='direct_ems'>", "malformed XML", 3),
         ('<integrator type="nope"/>', 'unknown integrator type "nope"; valid types: .*direct_ems', 2),
-        ('<integrator type="path"/>', "does not support", 2),
+        ('<integrator type="vpl"/>', "does not support", 2),
         ("<foo/>", "expected an object tag", 2),
         ('<integrator type="direct_ems"/>\n<camera type="perspective"><integer name="fov" value="30"/></camera>',
          "'fov' must be given as <float>, not <integer>", 3),

@@ -33,28 +33,35 @@ def bsdf_rays(scene, sp, u: np.ndarray):
 
     Returns
     -------
-    (live, weight, pdf_bsdf, Le, pdf_light)
+    (live, weight, pdf_bsdf, Le, pdf_light, delta)
         ``live`` indexes the shading points whose sample has a non-zero weight; the other arrays are
-        restricted to them: BSDF weight f·cos/p, BSDF pdf, radiance found along the ray, and the
-        solid-angle pdf with which light sampling would pick that direction (selection included).
+        restricted to them: BSDF weight f·cos/p, BSDF pdf, radiance found along the ray, the solid-angle
+        pdf with which light sampling would pick that direction (selection included), and which samples
+        came from a delta lobe (None when none can: MIS gives those weight 1, spec §13.2.5).
     """
-    wo, weight, pdf = sample_bsdfs(scene, sp, u)
+    wo, weight, pdf, delta = sample_bsdfs(scene, sp, u, with_delta=True)
+    live, d, o, weight, pdf = spawn_rays(scene, sp, wo, weight, pdf)
+    Le, pdf_light = emission_along(scene, o, d)
+    return live, weight, pdf, Le, pdf_light, None if delta is None else np.take(delta, live)
+
+
+def spawn_rays(scene, sp, wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray):
+    """The rays of the BSDF samples (local ``wo``) that carry weight: (live, world d, origins (float32, off the
+    surface on the side d leaves toward: reflected and transmitted rays alike), weight[live], pdf[live])."""
     g = scene.geometry
     if compiled():
-        live, d, o, weight, pdf = load("direct").bsdf_ray_batch(g, sp, wo, weight, pdf)
+        return load("direct").bsdf_ray_batch(g, sp, wo, weight, pdf)
+    live = np.flatnonzero(any_positive(weight))
+    if len(live) == len(wo):
+        # Every sample carries weight (e.g. diffuse surfaces only): the gathers would copy every row.
+        d, p, ng = sp.world(wo), sp.p, sp.ng
     else:
-        live = np.flatnonzero(any_positive(weight))
-        if len(live) == len(wo):
-            # Every sample carries weight (e.g. diffuse surfaces only): the gathers would copy every row.
-            d, p, ng = sp.world(wo), sp.p, sp.ng
-        else:
-            d = sp.world(take_rows(wo, live), live)
-            p, ng, weight, pdf = (take_rows(sp.p, live), take_rows(sp.ng, live), take_rows(weight, live),
-                                  np.take(pdf, live))
-        d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
-        o = g.offset_origin(p, ng, d, f32=True)
-    Le, pdf_light = emission_along(scene, o, d)
-    return live, weight, pdf, Le, pdf_light
+        d = sp.world(take_rows(wo, live), live)
+        p, ng, weight, pdf = (take_rows(sp.p, live), take_rows(sp.ng, live), take_rows(weight, live),
+                              np.take(pdf, live))
+    d /= np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])[:, None]
+    o = g.offset_origin(p, ng, d, f32=True)
+    return live, d, o, weight, pdf
 
 
 class DirectMATS(Integrator):
@@ -67,6 +74,6 @@ class DirectMATS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0:
             return L
-        live, weight, _, Le, _ = bsdf_rays(scene, sp, point_uniforms(rng, len(o), sp, 3))
+        live, weight, _, Le, _, _ = bsdf_rays(scene, sp, point_uniforms(rng, len(o), sp, 3))
         accumulate(L, sp.index[live], weight, Le)
         return L

@@ -86,7 +86,8 @@ class DirectMIS(Integrator):
         else:
             Lsp = np.zeros((m, 3), order="F")
         if self.parts != "emitter":
-            live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
-            accumulate(Lsp, live, weight, Le, mis_weight(p_b, p_l, self.beta))
+            live, weight, p_b, Le, p_l, delta = bsdf_rays(scene, sp, u[:, k:])
+            w = mis_weight(p_b, p_l, self.beta)
+            accumulate(Lsp, live, weight, Le, w if delta is None else np.where(delta, 1.0, w))
         set_rows(L, sp.index, Lsp)
         return L
