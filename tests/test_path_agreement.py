@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import brdflab as bl
 from brdflab.integrator import wavefront
 from brdflab.judges.estimators import agreement as ag
 from tests.conftest import ROOT
@@ -72,3 +73,29 @@ def test_planted_bugs_are_rejected(monkeypatch, name, planted, scene):
     monkeypatch.setattr(wavefront, name, planted)
     r = agree(scene)
     assert not r.passed and r.p_value < 1e-6, (r.p_value, r.worst)
+
+
+def test_direct_integrators_accept_delta_materials(monkeypatch):
+    """direct_mats and direct_mis agree on the mirror and glass spheres (MIS weight 1 for delta samples, spec
+    §13.2.5), and emitter sampling adds nothing at a delta vertex (its f is 0 for every light direction).
+    Negative control: direct_mis weighting delta samples by the balance heuristic (p_b = the lobe's discrete
+    probability) darkens the light seen in the mirror and through the glass, and is rejected."""
+    from brdflab.integrator import common, direct_mis
+
+    path = GLASS[0]
+    r = ag.estimator_agreement(path, estimators=("direct_mats", "direct_mis"), **GLASS[1])
+    assert r.passed, (r.p_value, r.worst)
+    scene = bl.load_scene(path, width=64, height=64)
+    rng = np.random.default_rng(3)
+    o, d, tmax = scene.camera.generate_rays(rng.random(20_000) * 64, rng.random(20_000) * 64)
+    _, sp = common.trace_camera(scene, o, d, tmax)
+    c = common.light_term(scene, sp, rng.random((len(sp.index), common.light_dims(scene))))
+    families = common.scene_tables(scene).bsdf_families.families
+    delta = np.zeros(len(sp.index), bool)
+    for g, sel in sp.groups:
+        delta[sel] = getattr(families[g].members[0], "all_delta", False)
+    assert delta.sum() > 500 and np.all(c[delta] == 0) and (c[~delta] > 0).any(axis=1).sum() > 1000
+    bsdf_rays = direct_mis.bsdf_rays
+    monkeypatch.setattr(direct_mis, "bsdf_rays", lambda *a: (*bsdf_rays(*a)[:5], None))
+    r = ag.estimator_agreement(path, estimators=("direct_mats", "direct_mis"), **GLASS[1])
+    assert not r.passed and r.p_value < 1e-4, (r.p_value, r.worst)

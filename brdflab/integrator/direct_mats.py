@@ -8,7 +8,8 @@ At the first hit x (not an emitter), one direction ω ~ p_bsdf(· | ω_i) is tra
 
 where L_e is the radiance of the emitter mesh the ray hits (one-sided), or the environment when it
 escapes, and 0 otherwise. Misses of the camera ray return the background; camera hits on an emitter
-return its L_e and stop. Point lights cannot be found this way (their contribution is 0 here).
+return its L_e and stop. Point lights cannot be found this way (their contribution is 0 here). A delta
+material (mirror, dielectric) works unchanged: its sample's weight is the whole throughput factor.
 """
 
 from __future__ import annotations
