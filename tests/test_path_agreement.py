@@ -19,6 +19,10 @@ Negative controls (each must be rejected), planted by replacing one function of
 * BSDF-found emission counted twice in ``path_mis`` (MIS-weighted, then again unweighted);
 * ``path_nee`` dropping the emission found after a delta sample (the light seen in the mirror and through the
   glass) — only a scene with delta materials can show this one.
+
+The direct integrators on delta materials (``direct_mats`` = ``direct_mis``; ``direct_ems`` adds nothing at a
+delta vertex) and the light term through a transmitting material (a rough glass pane lit from behind: |cos θ_o|)
+are checked here too, each with its negative control.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import pytest
 import brdflab as bl
 from brdflab.integrator import wavefront
 from brdflab.judges.estimators import agreement as ag
-from tests.conftest import ROOT
+from tests.conftest import ROOT, write_scene
 
 GLASS = (ROOT / "scenes" / "cbox" / "cbox_glass_mis.xml", {"width": 48, "height": 48})
 MIXED = (ROOT / "scenes" / "lights" / "mixed_lights_mis.xml", {})
@@ -99,3 +103,30 @@ def test_direct_integrators_accept_delta_materials(monkeypatch):
     monkeypatch.setattr(direct_mis, "bsdf_rays", lambda *a: (*bsdf_rays(*a)[:5], None))
     r = ag.estimator_agreement(path, estimators=("direct_mats", "direct_mis"), **GLASS[1])
     assert not r.passed and r.p_value < 1e-4, (r.p_value, r.worst)
+
+
+PANE = """<camera type="perspective">
+<transform name="toWorld"><lookat origin="0.3,0.2,3" target="0,0,0" up="0,1,0"/></transform>
+<float name="fov" value="40"/><integer name="width" value="32"/><integer name="height" value="32"/></camera>
+<mesh type="obj"><string name="filename" value="pane.obj"/>
+<bsdf type="roughdielectric"><float name="alpha" value="0.3"/></bsdf></mesh>
+<mesh type="obj"><string name="filename" value="light.obj"/>
+<emitter type="area"><color name="radiance" value="5,5,5"/></emitter></mesh>"""
+
+
+def test_light_through_a_rough_glass_pane(tmp_path, monkeypatch):
+    """A rough dielectric pane with the only light behind it: emitter samples count with |cos θ_o| on a
+    transmitting material (CONTRACT §3), so every direct and path estimator agrees with BSDF sampling.
+    Negative control: the one-sided max(cos θ_o, 0) drops all the light that NEE finds through the pane."""
+    from brdflab.integrator import common
+
+    scene = write_scene(tmp_path, '<integrator type="direct_ems"/>' + PANE, {
+        "pane.obj": "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
+        "light.obj": "v -0.3 -0.3 -1\nv 0.3 -0.3 -1\nv 0.3 0.3 -1\nv -0.3 0.3 -1\nf 1 2 3\nf 1 3 4\n"})
+    for estimators in (ag.ESTIMATORS, ag.PATH_ESTIMATORS):
+        r = ag.estimator_agreement(scene, estimators=estimators, width=32, height=32)
+        assert r.passed and min(r.means.values()) > 0.05, (r.p_value, r.worst, r.means)
+    monkeypatch.setattr(common, "transmitted_cos", lambda scene, sp, wo: wo)
+    for estimators in (ag.ESTIMATORS, ag.PATH_ESTIMATORS):
+        r = ag.estimator_agreement(scene, estimators=estimators, width=32, height=32)
+        assert not r.passed and r.p_value < 1e-6, (r.p_value, r.worst)
