@@ -130,3 +130,14 @@ def test_light_through_a_rough_glass_pane(tmp_path, monkeypatch):
     for estimators in (ag.ESTIMATORS, ag.PATH_ESTIMATORS):
         r = ag.estimator_agreement(scene, estimators=estimators, width=32, height=32)
         assert not r.passed and r.p_value < 1e-6, (r.p_value, r.worst)
+
+
+def test_report_judges_path_tracers_against_path_mis():
+    """``brdflab report`` with a path tracer takes ``path_mis`` renders as its reference (global illumination):
+    path_nee shows no significant bias, while direct_mis in the same study (the control) is flagged dark."""
+    st = bl.report(GLASS[0], ["path_nee", "direct_mis"], spp=[16], runs=3, ref_spp=64, resolution=(24, 24),
+                   workers=1, flip=False, mis_weights=False)
+    assert st.reference_integrator == "path_mis"
+    rows = {r.integrator: r for r in st.rows}
+    assert not rows["path_nee"].bias_significant, rows["path_nee"].bias_p
+    assert rows["direct_mis"].bias_significant and rows["direct_mis"].bias < -0.1, rows["direct_mis"].bias
