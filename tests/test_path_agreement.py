@@ -135,7 +135,7 @@ def test_light_through_a_rough_glass_pane(tmp_path, monkeypatch):
 def test_report_judges_path_tracers_against_path_mis():
     """``brdflab report`` with a path tracer takes ``path_mis`` renders as its reference (global illumination):
     path_nee shows no significant bias, while direct_mis in the same study (the control) is flagged dark."""
-    st = bl.report(GLASS[0], ["path_nee", "direct_mis"], spp=[16], runs=3, ref_spp=64, resolution=(24, 24),
+    st = bl.report(GLASS[0], ["path_nee", "direct_mis"], spp=[16], runs=5, ref_spp=64, resolution=(24, 24),
                    workers=1, flip=False, mis_weights=False)
     assert st.reference_integrator == "path_mis"
     rows = {r.integrator: r for r in st.rows}
