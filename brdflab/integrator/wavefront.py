@@ -68,9 +68,9 @@ def path_uniforms(rng: np.random.Generator, sp: ShadingPoints, dims: int) -> np.
     """(M, dims) uniforms for the points ``sp`` (one per live path), drawn in ascending order of the paths'
     camera samples ``sp.index`` whatever order the points are in (they are sorted by material family)."""
     m = len(sp.index)
-    u = np.empty((m, dims))
-    u[np.argsort(sp.index, kind="stable")] = rng.random((m, dims))
-    return u
+    rank = np.empty(m, np.intp)
+    rank[np.argsort(sp.index, kind="stable")] = np.arange(m)
+    return np.take(rng.random((m, dims)), rank, axis=0)
 
 
 def roulette(beta: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
