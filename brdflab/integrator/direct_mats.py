@@ -34,16 +34,19 @@ def bsdf_rays(scene, sp, u: np.ndarray):
 
     Returns
     -------
-    (live, weight, pdf_bsdf, Le, pdf_light, delta)
+    (live, weight, pdf_bsdf, Le, pdf_light)
         ``live`` indexes the shading points whose sample has a non-zero weight; the other arrays are
-        restricted to them: BSDF weight f·cos/p, BSDF pdf, radiance found along the ray, the solid-angle
-        pdf with which light sampling would pick that direction (selection included), and which samples
-        came from a delta lobe (None when none can: MIS gives those weight 1, spec §13.2.5).
+        restricted to them: BSDF weight f·cos/p, BSDF pdf, radiance found along the ray, and the
+        solid-angle pdf with which light sampling would pick that direction (selection included). A sample
+        from a delta lobe (mirror, dielectric) has pdf_bsdf = ∞ (a Dirac delta's density), so the MIS
+        weights of ``direct_mis`` give it 1 (spec §13.2.5) and light sampling 0.
     """
     wo, weight, pdf, delta = sample_bsdfs(scene, sp, u, with_delta=True)
+    if delta is not None:
+        pdf = np.where(delta, np.inf, pdf)
     live, d, o, weight, pdf = spawn_rays(scene, sp, wo, weight, pdf)
     Le, pdf_light = emission_along(scene, o, d)
-    return live, weight, pdf, Le, pdf_light, None if delta is None else np.take(delta, live)
+    return live, weight, pdf, Le, pdf_light
 
 
 def spawn_rays(scene, sp, wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray):
@@ -75,6 +78,6 @@ class DirectMATS(Integrator):
         L, sp = trace_camera(scene, o, d, tmax)
         if len(sp.index) == 0:
             return L
-        live, weight, _, Le, _, _ = bsdf_rays(scene, sp, point_uniforms(rng, len(o), sp, 3))
+        live, weight, _, Le, _ = bsdf_rays(scene, sp, point_uniforms(rng, len(o), sp, 3))
         accumulate(L, sp.index[live], weight, Le)
         return L

@@ -14,8 +14,8 @@ One emitter sample (ω_l, pdf p_l = p_sel·p_ω) and one BSDF sample (ω_b, pdf 
 
 with both densities in solid angle and p_light including the emitter-selection probability (the
 student's version omits it). Delta lights get w_l = 1 (BSDF sampling cannot find them), and so do samples
-of a delta BSDF lobe (mirror, dielectric: w_b = 1, light sampling cannot find those directions; their ``pdf``
-is a discrete probability, not a density); the environment is weighted like any other emitter (no double
+of a delta BSDF lobe (mirror, dielectric: w_b = 1, light sampling cannot find those directions; ``bsdf_rays``
+gives them p_b = ∞, which the heuristic maps to 1); the environment is weighted like any other emitter (no double
 counting).
 """
 
@@ -88,8 +88,7 @@ class DirectMIS(Integrator):
         else:
             Lsp = np.zeros((m, 3), order="F")
         if self.parts != "emitter":
-            live, weight, p_b, Le, p_l, delta = bsdf_rays(scene, sp, u[:, k:])
-            w = mis_weight(p_b, p_l, self.beta)
-            accumulate(Lsp, live, weight, Le, w if delta is None else np.where(delta, 1.0, w))
+            live, weight, p_b, Le, p_l = bsdf_rays(scene, sp, u[:, k:])
+            accumulate(Lsp, live, weight, Le, mis_weight(p_b, p_l, self.beta))
         set_rows(L, sp.index, Lsp)
         return L
