@@ -45,14 +45,13 @@ import numpy as np
 
 from brdflab.imageio import read_exr
 from brdflab.pages.metrics import compare
+from brdflab.stats.jobs import reference_integrator
 
 #: Human-readable names of the integrators.
 LABELS = {"direct_ems": "emitter sampling", "direct_mats": "BSDF sampling", "direct_mis": "MIS (balance)",
           "direct_mis:balance": "MIS (balance)", "direct_mis:power": "MIS (power)",
           "direct_whitted": "Whitted", "normals": "normals", "path": "path: BSDF sampling",
           "path_nee": "path: next-event estimation", "path_mis": "path: MIS (balance)"}
-#: The path tracers: a study of any of them is judged against ``path_mis`` renders (global illumination).
-PATH_TRACERS = ("path", "path_nee", "path_mis")
 #: Confidence level of the report's intervals.
 LEVEL = 0.95
 #: Family-wise level of the bias flags.
@@ -230,12 +229,6 @@ def study_jobs(scene_path: Path, integrators: list[str], max_spp: int, runs: int
     return [(k, RenderJob(Path(scene_path), name, max_spp, run_seed(seed, 10000 * i + k, "report"), resolution,
                           workers))
             for k in range(runs) for i, name in enumerate(integrators)]
-
-
-def reference_integrator(integrators) -> str:
-    """The integrator of brdflab's own reference: ``path_mis`` when a path tracer is compared (the image holds
-    indirect light), else ``direct_mis``."""
-    return "path_mis" if any(str(i).split(":")[0] in PATH_TRACERS for i in integrators) else "direct_mis"
 
 
 def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=None, workers=None,
