@@ -11,7 +11,9 @@ The public API (``import brdflab as bl``; the tutorial is ``docs/api.md``):
 ``bl.render(scene, spp, seed, workers)``   the (H, W, 3) float32 image (``return_stats=True``: also the stats)
 ``bl.read_exr``, ``bl.write_exr``          linear RGB OpenEXR files
 ``bl.Diffuse``, ``bl.RoughConductor``,     the materials, with keyword parameters named as in scene files
-``bl.RoughSubstrate``, ``bl.Measured``      (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`)
+``bl.RoughSubstrate``, ``bl.Measured``,    (``Measured``: a MERL table, :mod:`brdflab.bsdf.measured`;
+``bl.Mirror``, ``bl.Dielectric``,          ``Mirror`` and ``Dielectric`` are delta BSDFs, ``Dielectric`` and
+``bl.RoughDielectric``                     ``RoughDielectric`` transmit: :mod:`brdflab.bsdf.base`)
 ``bl.fit(measured, model)``                least-squares fit of a model's parameters to a measured BRDF
 ``bl.BSDF``, ``bl.BSDFSample``             the contract a user's material implements (:mod:`brdflab.bsdf.base`)
 ``bl.register_bsdf``, ``bl.load_plugin``   make a user's BSDF known to scenes and every command
@@ -47,6 +49,9 @@ _EXPORTS = {
     "Diffuse": "brdflab.bsdf.diffuse:Diffuse",
     "RoughConductor": "brdflab.bsdf.roughconductor:RoughConductor",
     "RoughSubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
+    "Mirror": "brdflab.bsdf.mirror:Mirror",
+    "Dielectric": "brdflab.bsdf.dielectric:Dielectric",
+    "RoughDielectric": "brdflab.bsdf.roughdielectric:RoughDielectric",
     "register_bsdf": "brdflab.plugins:register_bsdf",
     "load_plugin": "brdflab.plugins:load_plugin",
     "make_bsdf": "brdflab.plugins:make_bsdf",
@@ -59,6 +64,7 @@ _EXPORTS = {
     "warp_chi2_test": "brdflab.judges:warp_chi2_test",
     "consistency_test": "brdflab.judges:consistency_test",
     "furnace_test": "brdflab.judges:furnace_test",
+    "delta_test": "brdflab.judges:delta_test",
     "stability_test": "brdflab.judges:stability_test",
     "run_battery": "brdflab.judges:run_battery",
     "emitter_checks": "brdflab.judges:emitter_checks",

@@ -10,6 +10,9 @@ BUILTIN: dict[str, dict[str, str]] = {
         "roughconductor": "brdflab.bsdf.roughconductor:RoughConductor",
         "roughsubstrate": "brdflab.bsdf.roughsubstrate:RoughSubstrate",
         "measured": "brdflab.bsdf.measured:Measured",
+        "mirror": "brdflab.bsdf.mirror:Mirror",
+        "dielectric": "brdflab.bsdf.dielectric:Dielectric",
+        "roughdielectric": "brdflab.bsdf.roughdielectric:RoughDielectric",
     },
     "emitter": {
         "area": "brdflab.emitter.area:AreaEmitter",
@@ -22,12 +25,15 @@ BUILTIN: dict[str, dict[str, str]] = {
         "direct_mats": "brdflab.integrator.direct_mats:DirectMATS",
         "direct_mis": "brdflab.integrator.direct_mis:DirectMIS",
         "direct_whitted": "brdflab.integrator.direct_whitted:DirectWhitted",
+        "path": "brdflab.integrator.path:PathBSDF",
+        "path_nee": "brdflab.integrator.path:PathNEE",
+        "path_mis": "brdflab.integrator.path:PathMIS",
     },
 }
-#: Nori plugins brdflab deliberately leaves out (no path tracing, no delta BSDFs).
+#: Nori plugins brdflab deliberately leaves out.
 UNSUPPORTED = {
-    "bsdf": ("mirror", "dielectric", "roughdielectric"),
-    "integrator": ("depth", "path", "path_nee", "path_mis", "vpl"),
+    "bsdf": (),
+    "integrator": ("depth", "vpl"),
 }
 
 

@@ -124,10 +124,11 @@ def check_alpha(alpha: object, what: str = "alpha") -> None:
                            f"formulas lose float64 precision and the surface is a mirror), got {clean(alpha, 30)}")
 
 
-def check_test_arguments(theta: object, samples: object,
-                         threshold: object = None) -> tuple[float | None, int, float | None]:
+def check_test_arguments(theta: object, samples: object, threshold: object = None,
+                         two_sided: bool = False) -> tuple[float | None, int, float | None]:
     """The arguments of a test, checked like the command line's options: θ_i a finite angle in [0°, 90°)
-    (None: no angle), ``samples`` an integer ≥ 1, ``threshold`` in (0, 1) or None.
+    (None: no angle; [0°, 180°) for a ``two_sided`` BSDF, ω_i inside beyond 90°), ``samples`` an integer ≥ 1,
+    ``threshold`` in (0, 1) or None.
 
     Raises
     ------
@@ -143,8 +144,10 @@ def check_test_arguments(theta: object, samples: object,
             t = float(theta)
         except (TypeError, ValueError):
             raise BrdflabError(f"theta must be a number of degrees, got {clean(repr(theta), 30)}") from None
-        if not (math.isfinite(t) and 0.0 <= t < 90.0):
-            raise BrdflabError(f"theta must be in [0, 90) degrees (ω_i above the surface), got {clean(theta, 30)}")
+        top = 180.0 if two_sided else 90.0
+        if not (math.isfinite(t) and 0.0 <= t < top):
+            raise BrdflabError(f"theta must be in [0, {top:g}) degrees (ω_i above the surface"
+                               + (" or, beyond 90, inside" if two_sided else "") + f"), got {clean(theta, 30)}")
         theta = t
     if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
         raise BrdflabError(f"samples must be an integer ≥ 1, got {clean(repr(samples), 30)}")

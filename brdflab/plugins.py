@@ -323,8 +323,8 @@ def plugin_class(tag: str, type_name: str, spec: Any = None) -> type:
         valid = list(table) + (list(_USER_BSDFS) if tag == "bsdf" else [])
         shown = ", ".join(sorted(valid)) or "none"
         if type_name in UNSUPPORTED.get(tag, ()):
-            msg = f'<{tag} type="{_short(type_name)}"> is a Nori plugin that brdflab does not support ' \
-                  f"(direct illumination only); supported types: {shown}"
+            msg = f'<{tag} type="{_short(type_name)}"> is a Nori plugin that brdflab does not support; ' \
+                  f"supported types: {shown}"
         else:
             hint = get_close_matches(type_name, valid, n=1)
             msg = f'unknown {tag} type "{_short(type_name)}"' + (f" (did you mean '{hint[0]}'?)" if hint else "") \

@@ -270,7 +270,8 @@ def report(scene: str | Path, integrators: Sequence[str] = ("direct_ems", "direc
            force: bool = False, cluster=None):
     """Compare integrators on one scene: error against samples and time, with intervals (``brdflab report``).
 
-    Without ``ref`` the reference is rendered by brdflab's ``direct_mis`` at ``ref_spp`` with its own seeds,
+    Without ``ref`` the reference is rendered by brdflab's ``direct_mis`` (``path_mis`` when a path tracer is
+    compared) at ``ref_spp`` with its own seeds,
     independent of the compared runs; the report says so (the MIS row's bias is then measured against the
     same estimator and cannot show a bias of MIS itself — give ``ref`` for that).
 

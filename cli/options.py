@@ -53,8 +53,9 @@ def add_bsdf_options(p: argparse.ArgumentParser, required: bool = False, repeat:
                    "(repeatable; converted by the parameter's type)")
     p.add_argument("--alpha", type=number(MIN_ALPHA), action="append", metavar="A",
                    help=f"roughness α ≥ {MIN_ALPHA:g} (repeatable; only for a BSDF with an alpha parameter)")
-    p.add_argument("--theta", type=number(0.0, 90.0, open_hi=True), action="append", metavar="DEG",
-                   help="incident angle θ_i in degrees, in [0, 90) (repeatable)")
+    p.add_argument("--theta", type=number(0.0, 180.0, open_hi=True), action="append", metavar="DEG",
+                   help="incident angle θ_i in degrees, in [0, 90) (repeatable); up to 180 for a two-sided BSDF "
+                   "(dielectric, roughdielectric: ω_i inside)")
     add_plugin_option(p)
 
 
@@ -88,7 +89,7 @@ def bsdf_spec_from_args(args: argparse.Namespace,
     ------
     BrdflabError
         Unknown BSDF or parameter, a value of the wrong type or non-finite, ``--alpha`` for a BSDF without
-        an ``alpha`` parameter or not > 0, ``--theta`` outside [0, 90).
+        an ``alpha`` parameter or not > 0, ``--theta`` outside [0, 90) ([0, 180) for a two-sided BSDF).
     """
     from brdflab.plugins import bsdf_class, is_builtin, parameter_kinds, property_list
 
@@ -106,9 +107,10 @@ def bsdf_spec_from_args(args: argparse.Namespace,
         for a in alphas:
             if not (math.isfinite(a) and a > 0):
                 raise BrdflabError(f"--alpha must be > 0 (and finite), got {a}")
+    top = 180 if getattr(bsdf_class(base), "two_sided", False) else 90  # two-sided: ω_i may be inside
     for t in args.theta or []:
-        if not (math.isfinite(t) and 0 <= t < 90):
-            raise BrdflabError(f"--theta must be in [0, 90) degrees, got {t}")
+        if not (math.isfinite(t) and 0 <= t < top):
+            raise BrdflabError(f"--theta must be in [0, {top}) degrees for {base}, got {t:g}")
     if is_builtin(base):  # a built-in's own input errors (a missing table file) are usage errors, before any test
         from brdflab.judges.material.battery import make_named_bsdf
 

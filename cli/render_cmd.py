@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=seed, help="random seed in [0, 2^64) (default: the scene's seed, else 0)")
     p.add_argument("--workers", type=count(1, MAX_WORKERS), help="worker processes (default: all cores)")
     p.add_argument("--integrator", help="override the scene's integrator (normals, direct_ems, direct_mats, "
-                   "direct_mis, direct_whitted)")
+                   "direct_mis, direct_whitted, path, path_nee, path_mis)")
     p.add_argument("--emitter-selection", choices=("uniform", "power"), default="uniform",
                    help="how to pick the emitter to sample (default: uniform, as Nori)")
     p.add_argument("-o", "--output", type=Path, help="output EXR path (the PNG is written beside it)")

@@ -13,6 +13,8 @@ cbox/      The Cornell box from its published measurements (Cornell University P
            appears on the left as in the photograph; no mirror scale is needed.
            The light quad is lowered 0.1 mm below the ceiling (the data places it in the ceiling plane)
            and faces down: area lights emit on the side their normal points to.
+           ``cbox_glass_{path,nee,mis}``: the box with a mirror and a glass sphere for the path tracers (128²);
+           ``cbox_roughglass_mis``: a rough copper and a rough glass (roughdielectric) sphere.
 checker/   A point-lit checkerboard plane.
 veach/     A Veach-style MIS scene (after Veach's thesis, fig. 9.2): four glossy plates of decreasing
            roughness, four sphere lights of increasing radius and equal power. Each plate's normal is the
@@ -178,6 +180,19 @@ def cornell_box(out: Path) -> None:
         for suffix, integ in (("", "direct_ems"), ("_mats", "direct_mats"), ("_mis", "direct_mis")):
             text = scene(f"Cornell box, two rough {key} spheres, {integ}", integ, sampler(16) + cam800 + room + body)
             write(out / f"cbox_{key}{suffix}.xml", text)
+    # Path tracing (assignment 4): a mirror sphere and a glass sphere (default IORs), small and quick.
+    cam_small = camera(np.array([278, 273, -800]) * MM, np.array([278, 273, 0]) * MM, (0, 1, 0),
+                       2 * np.degrees(np.arctan(12.5 / 35)), 128, 128)
+    glass = (mesh("meshes/sphere_left.obj", '<bsdf type="mirror"/>')
+             + mesh("meshes/sphere_right.obj", '<bsdf type="dielectric"/>'))
+    rough = (mesh("meshes/sphere_left.obj", conductor((0.95, 0.64, 0.54), 0.2))
+             + mesh("meshes/sphere_right.obj", '<bsdf type="roughdielectric"><float name="alpha" value="0.2"/></bsdf>'))
+    write(out / "cbox_roughglass_mis.xml", scene("Cornell box, a rough copper and a rough glass sphere, path_mis",
+                                                 "path_mis", sampler(16) + cam_small + room + rough))
+    for integ in ("path", "path_nee", "path_mis"):
+        body = sampler(16) + cam_small + room + glass
+        text = scene(f"Cornell box, a mirror and a glass sphere, {integ}", integ, body)
+        write(out / f"cbox_glass_{integ.removeprefix('path_') if '_' in integ else 'path'}.xml", text)
 
 
 # -- point-lit checkerboard ------------------------------------------------------------------------------------

@@ -62,6 +62,15 @@ def test_addresses(monkeypatch):
         Cluster("tcp://127.0.0.1:9", timeout=1)
 
 
+def test_path_tracer_bit_identical_to_local(cluster, tmp_path):
+    """path_mis with a mirror and a glass sphere (a wavefront of bounces per unit): the cluster's image is the
+    local one to the bit."""
+    scene = load_scene(small_cbox(tmp_path, variant="cbox_glass_mis"))
+    ref, _ = render(scene, spp=4, seed=3, workers=1)
+    img, _ = render(scene, spp=4, seed=3, cluster=cluster)
+    assert ref.mean() > 0 and np.array_equal(img, ref)
+
+
 def test_render_bit_identical_to_local_for_any_task_size(cluster, tmp_path):
     scene = load_scene(small_cbox(tmp_path))
     ref, _ = render(scene, spp=24, seed=5, workers=2)

@@ -17,6 +17,9 @@ DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.judges.public", "b
                    "brdflab.judges.material.stability", "brdflab.workflows",
                    "brdflab.judges.samples.tables", "brdflab.fitting", "brdflab.judges.samples.light_samples",
                    "brdflab.kernels", "brdflab.kernels.buffers"]
+#: Issue 44: the delta and transmissive materials.
+DOCTEST_MODULES += ["brdflab.bsdf.mirror", "brdflab.bsdf.dielectric", "brdflab.bsdf.roughdielectric",
+                    "brdflab.bsdf.fresnel"]
 
 
 def test_tutorial_runs(monkeypatch):

@@ -11,6 +11,20 @@ cos θ = z). ``wi`` points toward the previous vertex (the camera), ``wo`` towar
   exactly ``eval·cos/pdf``; 0 where the sample failed (cos θi ≤ 0, wo below the surface, pdf = 0).
   ``u`` has shape (N, 3): (ξ1, ξ2) drive the direction warp, ξ3 the lobe choice. All randomness comes
   from the caller.
+
+Delta lobes and transmission (issue 44; the defaults keep every older material and plugin as it was):
+
+* class attributes ``has_delta`` (some lobe is a Dirac delta), ``all_delta`` (every lobe is: no emitter
+  sampling at such a vertex), ``two_sided`` (the material handles cos θi < 0 itself; a one-sided material
+  returns 0 there) and ``has_transmission`` (wo may lie on the other side of the surface from wi);
+* :class:`BSDFSample` has a 4th field ``delta``: None (no delta sample, the old 3-field form) or an (N,) bool
+  array, True where the sample came from a delta lobe. There ``weight`` is the whole throughput factor
+  (f·|cos θo|/pdf in the limit), ``pdf`` the discrete probability of the chosen lobe (informational: never
+  a density), and ``eval``/``pdf`` of that direction return 0 (a delta has measure zero);
+* for ``has_transmission`` materials ``eval`` is nonzero for wi and wo on opposite sides, ``pdf`` covers the
+  whole sphere and weight = f·|cos θo|/pdf (:func:`abs_cos_weight`); :meth:`BSDF.eta_ratio` gives η_o/η_i
+  (the index on wo's side over wi's), with which the radiance form of f obeys the generalised reciprocity
+  f(wi, wo)/η_i² = f(wo, wi)/η_o² (Veach 1997, eq. 5.14).
 """
 
 from __future__ import annotations
@@ -31,7 +45,9 @@ class BSDFSample(NamedTuple):
     weight: np.ndarray
     """(N, 3) f·cos θo / pdf (0 where sampling failed)."""
     pdf: np.ndarray
-    """(N,) solid-angle density of ``wo``."""
+    """(N,) solid-angle density of ``wo`` (for a delta sample: the discrete probability of its lobe)."""
+    delta: np.ndarray | None = None
+    """(N,) bool, True where the sample came from a delta lobe; None: no delta sample (the old 3 fields)."""
 
 
 class BSDF:
@@ -44,6 +60,14 @@ class BSDF:
     #: True when f(ω_i, ω_o) = f(ω_o, ω_i) (checked by ``brdflab validate``); a class that is not
     #: reciprocal by design says so here and the check only reports the asymmetry.
     reciprocal: bool = True
+    #: Some lobe is a Dirac delta (mirror, dielectric): its samples carry ``delta`` = True.
+    has_delta: bool = False
+    #: Every lobe is a delta: eval and pdf are 0 everywhere, emitter sampling is skipped at such a vertex.
+    all_delta: bool = False
+    #: The material handles cos θi < 0 itself (one-sided materials return 0 there).
+    two_sided: bool = False
+    #: wo may lie on the other side of the surface from wi (eval, pdf cover the whole sphere).
+    has_transmission: bool = False
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """Return f(wi, wo), shape (N, 3), without the cosine."""
@@ -60,6 +84,14 @@ class BSDF:
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
         """Sample ``wo`` given ``wi`` and uniforms ``u`` of shape (N, 3)."""
         raise NotImplementedError
+
+    def eta_ratio(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """η_o/η_i (N,): the refractive index on wo's side over the one on wi's side (1 without transmission).
+
+        With it the radiance form of f obeys f(wi, wo) = f(wo, wi)·(η_i/η_o)² (generalised reciprocity), and
+        the energy a sample carries is its weight·(η_o/η_i)² (the white furnace of transmissive materials).
+        """
+        return np.ones(len(wi))
 
     def set_texture(self, slot: str, texture: Texture) -> None:
         """Attach a child texture to ``slot`` (one of :attr:`texture_slots`)."""
@@ -96,7 +128,15 @@ class BSDF:
 
 def cos_weight(f: np.ndarray, wo: np.ndarray, pdf: np.ndarray) -> np.ndarray:
     """Return f·cos θo / pdf (N, 3), 0 where pdf ≤ 0 or cos θo ≤ 0 or the result is not finite."""
-    cos_o = wo[:, 2]
+    return _weight(f, wo[:, 2], pdf)
+
+
+def abs_cos_weight(f: np.ndarray, wo: np.ndarray, pdf: np.ndarray) -> np.ndarray:
+    """Return f·|cos θo| / pdf (N, 3) for transmissive BSDFs, 0 where pdf ≤ 0, cos θo = 0 or not finite."""
+    return _weight(f, np.abs(wo[:, 2]), pdf)
+
+
+def _weight(f: np.ndarray, cos_o: np.ndarray, pdf: np.ndarray) -> np.ndarray:
     ok = (pdf > 0) & (cos_o > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         w = f * np.where(ok, cos_o / np.where(ok, pdf, 1.0), 0.0)[:, None]

@@ -5,6 +5,8 @@
   sin²θ_t = η²(1 − cos²θ_i); total internal reflection (sin²θ_t ≥ 1) gives 1; equal indices give 0;
   otherwise r_s = (η_i cos θ_i − η_t cos θ_t)/(η_i cos θ_i + η_t cos θ_t),
   r_p = (η_t cos θ_i − η_i cos θ_t)/(η_t cos θ_i + η_i cos θ_t), F = (r_s² + r_p²)/2.
+* :func:`dielectric_refraction`: the same F for cosines on either side, with Snell's cos θ_t and η = η_i/η_t
+  (what a refracting material needs: spec §10.4).
 * Schlick's approximation with a colour R0: F = R0 + (1 − R0)(1 − cos θ)⁵ per channel (no clamping of
   cos θ, as the spec says; callers pass cosines in [0, 1]).
 """
@@ -26,6 +28,11 @@ def fresnel_dielectric(cos_i: np.ndarray, eta_ext: float, eta_int: float) -> np.
         eta_i = np.where(entering, eta_ext, eta_int)
         eta_t = np.where(entering, eta_int, eta_ext)
         ci = np.abs(cos_i)
+    return _fresnel(ci, eta_i, eta_t)[0]
+
+
+def _fresnel(ci: np.ndarray, eta_i, eta_t) -> tuple[np.ndarray, np.ndarray]:
+    """(F, cos θ_t) for cosines ci ≥ 0 on the side of index η_i (PBR eqs. 8.1–8.3); TIR: F = 1, cos θ_t = 0."""
     sin2_t = (eta_i / eta_t) ** 2 * np.maximum(0.0, 1.0 - ci * ci)
     tir = sin2_t >= 1.0
     ct = np.sqrt(np.maximum(0.0, 1.0 - sin2_t))
@@ -33,7 +40,32 @@ def fresnel_dielectric(cos_i: np.ndarray, eta_ext: float, eta_int: float) -> np.
         rs = (eta_i * ci - eta_t * ct) / (eta_i * ci + eta_t * ct)
         rp = (eta_t * ci - eta_i * ct) / (eta_t * ci + eta_i * ct)
     f = 0.5 * (rs * rs + rp * rp)
-    return np.where(tir | ~np.isfinite(f), 1.0, np.clip(f, 0.0, 1.0))
+    return np.where(tir | ~np.isfinite(f), 1.0, np.clip(f, 0.0, 1.0)), ct
+
+
+def dielectric_refraction(cos_i: np.ndarray, eta_ext: float,
+                          eta_int: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fresnel reflectance and Snell's law for cosines on either side (spec §10.4, §11.1).
+
+    ``cos_i`` is measured against the exterior normal: cos θ_i ≥ 0 is outside (η_i, η_t) = (ext, int), a
+    negative cosine is inside (int, ext). Returns (F, cos θ_t ≥ 0, η = η_i/η_t), each (N,), with
+    sin²θ_t = η²(1 − cos²θ_i); total internal reflection gives F = 1 and cos θ_t = 0. Equal indices give F = 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f, ct, eta = dielectric_refraction(np.array([1.0, -1.0]), 1.0, 1.5)
+    >>> np.round(f, 4).tolist(), ct.tolist(), np.round(eta, 4).tolist()
+    ([0.04, 0.04], [1.0, 1.0], [0.6667, 1.5])
+    """
+    c = np.clip(np.asarray(cos_i, dtype=np.float64), -1.0, 1.0)
+    outside = c >= 0
+    eta_i = np.where(outside, eta_ext, eta_int)
+    eta_t = np.where(outside, eta_int, eta_ext)
+    f, ct = _fresnel(np.abs(c), eta_i, eta_t)
+    if eta_ext == eta_int:
+        f = np.zeros_like(c)
+    return f, ct, eta_i / eta_t
 
 
 def pow5(x: np.ndarray) -> np.ndarray:

@@ -1,1 +1,3 @@
-"""Integrators: ``normals``, ``direct_ems``, ``direct_mats``, ``direct_mis`` (shared helpers in common)."""
+"""Integrators: ``normals``, the direct ones (``direct_ems``, ``direct_mats``, ``direct_mis``, ``direct_whitted``)
+and the path tracers (``path``, ``path_nee``, ``path_mis``: :mod:`~brdflab.integrator.wavefront`); shared helpers in
+``common``."""

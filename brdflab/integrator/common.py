@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from brdflab.emitter.area import AreaLightSet
+from brdflab.integrator.sides import transmitted_cos
 from brdflab.integrator.tables import CODE_EMITTER, CODE_MISS, SceneTables, scene_tables
 from brdflab.kernels import compiled, load
 from brdflab.math.frame import NormalFrames, take_rows
@@ -126,6 +127,15 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
             d_lit = take_rows(d, lit)
             for e, sel in by_group(np.take(tab.tri_emitter, h.prim)):
                 L[rows(lit, sel)] = scene.emitters[e].eval_hit(rows(h.ns, sel), rows(h.uv, sel), rows(d_lit, sel))
+    return L, surface_points(scene, rh, d, code)
+
+
+def surface_points(scene, rh, d: np.ndarray, code: np.ndarray | None = None) -> ShadingPoints:
+    """:class:`ShadingPoints` of the hits of the trace ``rh`` (rays ``d``) on non-emitting surfaces (``index``:
+    the ray of each point); ``code`` is ``tri_code`` of the hits (:class:`SceneTables`) when already looked up."""
+    tab = scene_tables(scene)
+    if code is None:
+        code = np.take(tab.tri_code, rh.prim)
     # Shading points sorted by material family, and within a family flat meshes before smooth ones (only
     # those interpolate vertex normals).
     idx, runs = sort_by_code(code, tab.codes)
@@ -138,9 +148,9 @@ def trace_camera(scene, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> tuple
     smooth = [sl for c, sl in runs if c & 1]
     smooth = None if len(smooth) == len(runs) else smooth
     if compiled():
-        return L, _compiled_shading_points(scene, rh, d, idx, groups, smooth)
-    h = g.surface(rh, idx, uv=tab.bsdf_uv, smooth=smooth)
-    return L, make_shading_points(scene, h, take_rows(d, idx), idx, groups)
+        return _compiled_shading_points(scene, rh, d, idx, groups, smooth)
+    h = scene.geometry.surface(rh, idx, uv=tab.bsdf_uv, smooth=smooth)
+    return make_shading_points(scene, h, take_rows(d, idx), idx, groups)
 
 
 def _compiled_shading_points(scene, rh, d: np.ndarray, idx: np.ndarray, groups: list[tuple[int, slice]],
@@ -270,20 +280,30 @@ def _one_family(sp: ShadingPoints, m: int) -> bool:
     return len(sp.groups) == 1 and sp.groups[0][1] == slice(0, m)
 
 
-def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One BSDF sample per point: (local wo, weight f·cos/pdf, pdf)."""
+def sample_bsdfs(scene, sp: ShadingPoints, u: np.ndarray, with_delta: bool = False):
+    """One BSDF sample per point: (local wo, weight f·cos/pdf, pdf), and with ``with_delta`` also the (M,) bool
+    mask of samples from delta lobes (``BSDFSample.delta``; None when no material returned one)."""
     m = len(u)
     if _one_family(sp, m):
         bsdf, _ = next(bound_bsdfs(scene, sp))
         r = bsdf.sample(sp.wi, u, sp.uv)
-        return r.wo, r.weight, r.pdf
+        return (r.wo, r.weight, r.pdf, _delta_of(r)) if with_delta else (r.wo, r.weight, r.pdf)
     wo = np.zeros((m, 3), order="F")
     weight = np.zeros((m, 3), order="F")
     pdf = np.zeros(m)
+    delta = None
     for bsdf, sel in bound_bsdfs(scene, sp):
         r = bsdf.sample(sp.wi[sel], u[sel], rows(sp.uv, sel))
         wo[sel], weight[sel], pdf[sel] = r.wo, r.weight, r.pdf
-    return wo, weight, pdf
+        if with_delta and _delta_of(r) is not None:
+            delta = np.zeros(m, bool) if delta is None else delta
+            delta[sel] = r.delta
+    return (wo, weight, pdf, delta) if with_delta else (wo, weight, pdf)
+
+
+def _delta_of(r) -> np.ndarray | None:
+    """The ``delta`` field of a BSDF sample (None for the 3-field samples of the original contract)."""
+    return getattr(r, "delta", None)
 
 
 @dataclass
@@ -394,6 +414,7 @@ def light_term(scene, sp: ShadingPoints, u: np.ndarray, mis=None) -> np.ndarray:
     else:
         f, p_bsdf = eval_bsdfs(scene, sp, wo, with_pdf=True)
         w = mis(ls, p_bsdf)
+    wo = transmitted_cos(scene, sp, wo)
     if compiled():
         return load("direct").light_tail(scene.geometry, sp.p, sp.ng, ls.radiance, f, wo, ls.pdf, w, ls.wi, ls.dist)
     scale = np.maximum(wo[:, 2], 0.0)
@@ -418,9 +439,16 @@ def emission_along(scene, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.
     env = scene.environment  # without one, only the lights matter: Geometry.trace_to_lights is cheaper
     g, tri_emitter = scene.geometry, scene_tables(scene).tri_emitter
     rh = g.trace(o, d) if env is not None else g.trace_to_lights(o, d, tri_emitter)
+    return emission_of(scene, rh, d)
+
+
+def emission_of(scene, rh, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(L_e, light-sampling pdf) found by the rays ``d`` of the trace ``rh``: area lights hit on their front
+    side, the environment for misses, 0 elsewhere (see :func:`emission_along`)."""
+    env, g = scene.environment, scene.geometry
     fused = area_light_set(scene)
-    if fused is not None and compiled() and len(o):
-        Le, pdf = load("direct").light_set_emission(g, rh, d, tri_emitter, fused)
+    if fused is not None and compiled() and len(d):
+        Le, pdf = load("direct").light_set_emission(g, rh, d, scene_tables(scene).tri_emitter, fused)
     else:
         Le, pdf = _area_emission(scene, rh, d, fused)
     if env is not None:
@@ -454,4 +482,5 @@ def _area_emission(scene, rh, d: np.ndarray, fused: AreaLightSet | None) -> tupl
 __all__ = ["Integrator", "ShadingPoints", "LightSamples", "SceneTables", "CODE_EMITTER", "CODE_MISS", "background",
            "trace_camera", "shading_points", "make_shading_points", "scene_tables", "sort_by_code", "by_group",
            "accumulate", "any_positive", "rows", "eval_bsdfs", "sample_bsdfs", "light_dims", "sample_lights",
-           "light_contributions", "light_term", "set_rows", "emission_along", "choose_emitters"]
+           "light_contributions", "light_term", "set_rows", "emission_along", "emission_of", "choose_emitters",
+           "surface_points"]

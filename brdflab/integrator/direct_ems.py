@@ -7,7 +7,8 @@ For a camera ray whose first hit x (shading normal n_s) is not on an emitter:
     L = L_e(y → x) · f(ω_i, ω) · (n_s·ω) / (p_sel · p_ω) · V(x, y)
 
 with one emitter chosen with probability p_sel (uniform by default) and one sample of it (direction ω,
-solid-angle pdf p_ω). Misses return the background; hits on an emitter return its L_e and stop.
+solid-angle pdf p_ω). Misses return the background; hits on an emitter return its L_e and stop. A delta
+material (mirror, dielectric) gets no contribution: f = 0 for every sampled light direction (spec §13).
 """
 
 from __future__ import annotations

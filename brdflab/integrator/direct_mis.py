@@ -13,8 +13,10 @@ One emitter sample (ω_l, pdf p_l = p_sel·p_ω) and one BSDF sample (ω_b, pdf 
     w_l = p_l^β / (p_l^β + p_bsdf(ω_l)^β),   w_b = p_b^β / (p_b^β + p_light(ω_b)^β)
 
 with both densities in solid angle and p_light including the emitter-selection probability (the
-student's version omits it). Delta lights get w_l = 1 (BSDF sampling cannot find them); the
-environment is weighted like any other emitter (no double counting).
+student's version omits it). Delta lights get w_l = 1 (BSDF sampling cannot find them), and so do samples
+of a delta BSDF lobe (mirror, dielectric: w_b = 1, light sampling cannot find those directions; ``bsdf_rays``
+gives them p_b = ∞, which the heuristic maps to 1); the environment is weighted like any other emitter (no double
+counting).
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 No parameters. L = Σ_e L_e^smp · f(ω_i, ω) · (n_s·ω) / p_ω · V, with the shadow ray limited to the
 segment between the point and the light (Nori's student version, unbounded, is not copied). No emission
-is added at the camera hit (Nori's Whitted skeleton); brdflab has no delta BSDFs, so there is no
-mirror recursion.
+is added at the camera hit (Nori's Whitted skeleton). There is no mirror recursion: a delta material
+(mirror, dielectric) gets nothing here (its f is 0 for every light direction); the path tracers render it.
 """
 
 from __future__ import annotations

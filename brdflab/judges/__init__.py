@@ -9,6 +9,7 @@ function                    checks
 :func:`chi2_test`           ``sample`` against ``pdf`` (Pearson on pilot-placed, equal-probability bins)
 :func:`consistency_test`    weight = eval·cos/pdf, sampled pdf = pdf(), ∫ pdf ≤ 1, reciprocity, finiteness
 :func:`furnace_test`        directional albedo by quadrature and Monte Carlo agree; energy ≤ 1
+:func:`delta_test`          a delta BSDF (mirror, glass): exact directions and weights, lobe frequencies vs Fresnel
 :func:`stability_test`      extreme directions give no NaN, infinity, negative value or exception
 :func:`run_battery`         all of them over α/θ (and a plugin's declared ``sweep``) grids
 :func:`check_samples`       a file of samples from another renderer against brdflab's pdf (see
@@ -33,6 +34,7 @@ from brdflab.judges.core.seeding import test_seed
 from brdflab.judges.material.battery import Battery, BSDFEntry, run_battery
 from brdflab.judges.material.chi2 import SIGNIFICANCE, Chi2Result
 from brdflab.judges.material.consistency import ConsistencyResult, consistency_test
+from brdflab.judges.material.delta import DeltaResult, delta_test
 from brdflab.judges.material.furnace import AlbedoPoint, FurnaceResult, furnace_test
 from brdflab.judges.material.stability import StabilityResult, StabilityRow, stability_test
 from brdflab.judges.public import (
@@ -47,4 +49,4 @@ from brdflab.judges.public import (
 __all__ = ["AlbedoPoint", "BSDFEntry", "Battery", "CheckedBSDF", "Chi2Result", "ConsistencyResult", "FurnaceResult",
            "PluginFault", "SIGNIFICANCE", "StabilityResult", "StabilityRow", "check_samples", "chi2_test",
            "consistency_test", "default_seed", "furnace_test", "run_battery", "stability_test", "test_seed",
-           "warp_chi2_test", "emitter_checks", "estimator_agreement"]
+           "warp_chi2_test", "emitter_checks", "estimator_agreement", "DeltaResult", "delta_test"]

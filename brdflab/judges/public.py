@@ -48,7 +48,9 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
     bsdf
         Any :class:`brdflab.BSDF`, a user's plugin included.
     theta
-        Incident angle θ_i in degrees (ω_i in the x–z plane).
+        Incident angle θ_i in degrees (in [0, 90); up to 180 for a ``two_sided`` BSDF, ω_i inside). A delta BSDF
+        (``all_delta``) is judged by :func:`brdflab.judges.material.delta.delta_test` instead (a
+        :class:`~brdflab.judges.material.delta.DeltaResult`).
     samples
         Number of observed samples (the pilot adds a quarter more).
     seed
@@ -79,7 +81,8 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
     from brdflab.judges.core.guard import bsdf_params, describe
     from brdflab.limits import check_test_arguments
 
-    theta, samples, threshold = check_test_arguments(theta, samples if count is None else count, threshold)
+    theta, samples, threshold = check_test_arguments(theta, samples if count is None else count, threshold,
+                                                     two_sided=bool(getattr(bsdf, "two_sided", False)))
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     if output is not None:
@@ -89,8 +92,14 @@ def chi2_test(bsdf, theta: float = 30.0, samples: int = 100_000, seed: int | Non
         prepare_folder(Path(output), list(VALIDATION_FILES), [], force)  # before the work
     if seed is None:
         seed = test_seed("chi2", bsdf_identity(bsdf), params, float(theta))
-    result = _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
-                           threshold=SIGNIFICANCE if threshold is None else threshold)
+    if getattr(bsdf, "all_delta", False):  # no density to bin: the delta judge (exact directions, binomial)
+        from brdflab.judges.material.delta import delta_test
+
+        result = delta_test(bsdf, float(theta), int(samples), seed=seed, name=name, params=params,
+                            threshold=SIGNIFICANCE if threshold is None else threshold)
+    else:
+        result = _c2.bsdf_test(name, bsdf, float(theta), int(samples), seed=seed, params={**params, "theta": theta},
+                               threshold=SIGNIFICANCE if threshold is None else threshold)
     if output is not None:
         from brdflab.judges.material.battery import Battery
         from brdflab.outputs import record_outputs

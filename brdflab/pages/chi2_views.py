@@ -140,7 +140,10 @@ def plane_view(result: c2.Chi2Result, s: Sampler, seed: int, n_points: int = 300
 
 
 def view_of(result: c2.Chi2Result, n: int = 100_000, seed: int = 0) -> View | None:
-    """The detailed view of a battery result (None when its sampler cannot be rebuilt)."""
+    """The detailed view of a battery result (None when its sampler cannot be rebuilt, or the test has no bins:
+    a delta BSDF's judge, a test that faulted)."""
+    if result.observed is None:
+        return None
     s = sampler_of(result)
     if s is None:
         return None

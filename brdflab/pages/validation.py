@@ -106,8 +106,9 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
     negative = []
     for r in bat.negative_control:
         cls, text = cv.verdict(r, True)
+        shown = "" if r.name == "roughconductor without Jacobian" else f"{r.name}, "  # the classic control: as before
         negative.append({"theta": f"{r.params.get('theta', float('nan')):g}°", "p": f"{r.p_value:.2g}", "cls": cls,
-                         "text": text})
+                         "text": text, "name": shown})
 
     details, anchors = [], {}
     for k, (r, neg) in enumerate(select_details(bat)):
@@ -163,7 +164,10 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                           **dict(zip(("cls", "text"), _verdict(r.passed), strict=True))} for r in bat.stability]}
 
     page = render("validation.html.j2", title=title, summary=summary, negative=negative,
-                  negative_what="the conductor's pdf without the 1/(4|ω_o·ω_h|) Jacobian, which the test must reject",
+                  negative_what="the conductor's pdf without the 1/(4|ω_o·ω_h|) Jacobian, which the test must reject"
+                  + ("; broken glass (η inverted, Fresnel of the wrong cosine, the transmitted half vector without "
+                     "its Jacobian), which the delta judge and the chi-square test must reject"
+                     if len(bat.negative_control) > 2 else ""),
                   failures=failures, causes=causes, details=details, views_note=VIEWS_NOTE, rows=rows,
                   consistency=consistency, albedo=albedo, stability=stab, light=_light_transport(bat))
     path = out / "index.html"

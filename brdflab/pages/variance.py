@@ -4,8 +4,8 @@ A study renders one scene with each integrator (``NAME`` or ``NAME:VARIANT``, e.
 in ``runs`` **independent runs** (own seeds, :mod:`brdflab.stats.jobs`; one function call per run, so a
 cluster can map them). Each run is progressive: one render to the largest sample count yields every
 smaller checkpoint (1, 2, 4, …) with its elapsed time. Every checkpoint of every run is compared with a
-reference (given, or ``direct_mis`` renders made first with independent seeds) using the metrics of
-:mod:`brdflab.pages.metrics`; per (integrator, spp) the runs give means and 95 % intervals:
+reference (given, or ``direct_mis`` — ``path_mis`` for the path tracers — renders made first with independent
+seeds) using the metrics of :mod:`brdflab.pages.metrics`; per (integrator, spp) the runs give means and 95 % intervals:
 
 * relMSE, MSE, MAPE, seconds: t intervals over the runs on log scale (delta method; positive);
 * bias = mean(x)/mean(r) − 1 of the image mean (over R, G, B), averaged over the runs. Its variance comes
@@ -45,11 +45,13 @@ import numpy as np
 
 from brdflab.imageio import read_exr
 from brdflab.pages.metrics import compare
+from brdflab.stats.jobs import reference_integrator
 
 #: Human-readable names of the integrators.
 LABELS = {"direct_ems": "emitter sampling", "direct_mats": "BSDF sampling", "direct_mis": "MIS (balance)",
           "direct_mis:balance": "MIS (balance)", "direct_mis:power": "MIS (power)",
-          "direct_whitted": "Whitted", "normals": "normals"}
+          "direct_whitted": "Whitted", "normals": "normals", "path": "path: BSDF sampling",
+          "path_nee": "path: next-event estimation", "path_mis": "path: MIS (balance)"}
 #: Confidence level of the report's intervals.
 LEVEL = 0.95
 #: Family-wise level of the bias flags.
@@ -230,8 +232,9 @@ def study_jobs(scene_path: Path, integrators: list[str], max_spp: int, runs: int
 
 
 def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=None, workers=None,
-                   map_fn: Callable = map, say: Callable[[str], None] = lambda m: None, cluster=None):
-    """brdflab's reference: ``runs`` independent ``direct_mis`` renders of ``spp`` each.
+                   map_fn: Callable = map, say: Callable[[str], None] = lambda m: None, cluster=None,
+                   integrator: str = "direct_mis"):
+    """brdflab's reference: ``runs`` independent renders of ``spp`` each by ``integrator``.
 
     Returns (mean image, relMSE of the mean against the truth (estimated), relative variance of its image
     mean, seconds).
@@ -239,7 +242,7 @@ def make_reference(scene_path: Path, spp: int, runs: int, seed: int, resolution=
     from brdflab.stats.jobs import RenderJob, run_job, run_seed
     from brdflab.stats.render_check import _side_from_runs, _with_mean_channel
 
-    jobs = [RenderJob(Path(scene_path), "direct_mis", spp, run_seed(seed, k, "reference"), resolution, workers)
+    jobs = [RenderJob(Path(scene_path), integrator, spp, run_seed(seed, k, "reference"), resolution, workers)
             for k in range(runs)]
     if cluster is not None:
         from brdflab.renderer import render
@@ -336,7 +339,8 @@ def run_study(
     spp_list
         Sample counts of the table rows and figures (every pass boundary is measured for the curves).
     reference
-        Reference EXR; without one, :data:`REF_RUNS` ``direct_mis`` renders of ``reference_spp``
+        Reference EXR; without one, :data:`REF_RUNS` renders of ``reference_spp`` by ``direct_mis`` (``path_mis``
+        when a path tracer is compared: :func:`reference_integrator`)
         (default 4 × max spp) with independent seeds are averaged first.
     workers, seed
         Passed to the renderer; run seeds derive from ``seed`` (:func:`study_jobs`).
@@ -386,14 +390,15 @@ def run_study(
         label_ = f"{reference}"
     else:
         ref_spp = reference_spp or 4 * max_spp
-        say(f"reference: {REF_RUNS} × {ref_spp} spp of direct_mis (made by brdflab; no reference was given)")
+        ref_int = reference_integrator(integrators)
+        say(f"reference: {REF_RUNS} × {ref_spp} spp of {ref_int} (made by brdflab; no reference was given)")
         ref, ref_noise, ref_var, secs = make_reference(scene_path, ref_spp, REF_RUNS, seed, resolution, workers,
-                                                       map_fn, say, cluster)
-        label_ = (f"brdflab direct_mis, {REF_RUNS} runs × {ref_spp} spp, independent seeds ({secs:.1f} s); "
+                                                       map_fn, say, cluster, ref_int)
+        label_ = (f"brdflab {ref_int}, {REF_RUNS} runs × {ref_spp} spp, independent seeds ({secs:.1f} s); "
                   f"its own relMSE ≈ {ref_noise:.3g}")
     study = Study(scene_path, integrators, spp_list, label_, ref, resolution=(width, height), runs=runs,
                   reference_noise=ref_noise, reference_mean_var=ref_var,
-                  reference_integrator=None if reference is not None else "direct_mis")
+                  reference_integrator=None if reference is not None else reference_integrator(integrators))
     flip_params = None
     if flip:
         from brdflab.pages.metrics import flip_parameters

@@ -19,7 +19,8 @@ from brdflab.pages.variance import BIAS_ALPHA, LEVEL, Study, label, untested_for
 from brdflab.pages.variance_summary import _fmt_ci, equal_time, reference_warning, speedup, summary
 
 COLORS = {"direct_ems": "#1f77b4", "direct_mats": "#d62728", "direct_mis": "#2ca02c",
-          "direct_mis:balance": "#2ca02c", "direct_mis:power": "#9467bd"}
+          "direct_mis:balance": "#2ca02c", "direct_mis:power": "#9467bd", "path": "#8c564b", "path_nee": "#e377c2",
+          "path_mis": "#17becf"}
 
 
 # -- outputs ---------------------------------------------------------------------------------------------

@@ -65,6 +65,20 @@ def validate_specs(specs: Iterable[str]) -> list[str]:
     return out
 
 
+#: The path tracers: a study or check of any of them is judged against ``path_mis`` renders (global illumination).
+PATH_TRACERS = ("path", "path_nee", "path_mis")
+
+
+def reference_integrator(specs: Iterable[str]) -> str:
+    """The integrator of brdflab's own reference for a study of ``specs``: ``path_mis`` when a path tracer is
+    compared (the image holds indirect light), else ``direct_mis``.
+
+    >>> reference_integrator(["direct_ems", "path_nee"]), reference_integrator(["direct_mis:power"])
+    ('path_mis', 'direct_mis')
+    """
+    return "path_mis" if any(str(s).split(":")[0] in PATH_TRACERS for s in specs) else "direct_mis"
+
+
 @dataclass(frozen=True)
 class RenderJob:
     """One independent render run."""

@@ -8,13 +8,19 @@ from __future__ import annotations
 import numpy as np
 
 
-def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
+def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int,
+               split_horizon: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Bin edges from pilot angles: θ strips at quantiles, then φ edges at quantiles inside each strip.
 
     Returns ``theta_edges`` (n_theta + 1,) from 0 to π and ``phi_edges`` (n_theta, n_phi + 1) from 0 to 2π,
-    both non-decreasing (a repeated edge is an empty bin of zero width).
+    both non-decreasing (a repeated edge is an empty bin of zero width). ``split_horizon`` (transmissive BSDFs,
+    :func:`sphere_theta_edges`): the horizon θ = π/2 is an edge and each hemisphere gets its own quantile
+    strips, at least 4 each, so a lobe holding a few per cent of the mass (reflection off glass) never shares
+    one wide strip with the rest of its hemisphere.
     """
-    if len(theta) < 2 * n_theta:
+    if split_horizon:
+        te = sphere_theta_edges(theta, n_theta)
+    elif len(theta) < 2 * n_theta:
         te = np.linspace(0.0, np.pi, n_theta + 1)
     else:
         te = np.quantile(theta, np.linspace(0, 1, n_theta + 1))
@@ -28,6 +34,23 @@ def pilot_bins(theta: np.ndarray, phi: np.ndarray, n_theta: int, n_phi: int) -> 
             else np.linspace(0.0, 2 * np.pi, n_phi + 1)
     pe[:, 0], pe[:, -1] = 0.0, 2 * np.pi
     return te, np.maximum.accumulate(np.clip(pe, 0.0, 2 * np.pi), axis=1)
+
+
+def sphere_theta_edges(theta: np.ndarray, n_theta: int) -> np.ndarray:
+    """θ edges over the whole sphere with the horizon as an edge: k strips above at the quantiles of the pilot's
+    upper θ, n_theta − k below at those of its lower θ, k ∝ the upper share of the pilot (4 ≤ k ≤ n_theta − 4)."""
+    up = theta[theta < np.pi / 2]
+    dn = theta[theta >= np.pi / 2]
+    k = int(np.clip(round(n_theta * len(up) / max(len(theta), 1)), 4, max(n_theta - 4, 4)))
+
+    def edges(x, a, b, m):
+        if len(x) < 2 * m:
+            return np.linspace(a, b, m + 1)
+        e = np.quantile(x, np.linspace(0, 1, m + 1))
+        e[0], e[-1] = a, b
+        return e
+
+    return np.concatenate([edges(up, 0.0, np.pi / 2, k)[:-1], edges(dn, np.pi / 2, np.pi, n_theta - k)])
 
 
 def theta_edges_from_pilot(theta: np.ndarray, n_theta: int) -> np.ndarray:

@@ -9,7 +9,8 @@ method         required of the result
 ``eval``       shape (N, 3), finite, ≥ 0
 ``pdf``        shape (N,), finite, ≥ 0
 ``sample``     a :class:`~brdflab.bsdf.base.BSDFSample` (or 3-tuple): ``wo`` (N, 3) finite, unit length
-               (|‖ω_o‖ − 1| ≤ 10⁻⁶) where pdf > 0; ``weight`` (N, 3) finite, ≥ 0; ``pdf`` (N,) finite, ≥ 0
+               (|‖ω_o‖ − 1| ≤ 10⁻⁶) where pdf > 0; ``weight`` (N, 3) finite, ≥ 0; ``pdf`` (N,) finite, ≥ 0;
+               ``delta`` None or (N,) booleans
 =============  ==========================================================================================
 
 A violation raises :class:`PluginFault`, which names the method, the BSDF's parameters and the first
@@ -162,10 +163,20 @@ class CheckedBSDF:
         """Checked sample: wo (N, 3) unit where pdf > 0, weight (N, 3) ≥ 0, pdf (N,) ≥ 0, all finite."""
         r = self._call("sample", wi, u, uv)
         try:
-            wo, weight, pdf = r
+            wo, weight, pdf, *rest = r
+            if len(rest) > 1:
+                raise ValueError
         except (TypeError, ValueError):
-            raise self.fault("sample", f"returned {type(r).__name__}, expected BSDFSample(wo, weight, pdf)") from None
+            raise self.fault("sample", f"returned {type(r).__name__}, expected BSDFSample(wo, weight, pdf[, delta])"
+                             ) from None
         n = len(wi)
+        delta = rest[0] if rest else None
+        if delta is not None:
+            delta = np.asarray(delta)
+            if delta.shape != (n,) or delta.dtype.kind not in "bui":
+                raise self.fault("sample", f"returned delta of shape {delta.shape} and type {delta.dtype}, expected "
+                                 f"None or ({n},) booleans")
+            delta = delta.astype(bool)
         pdf = self._array("sample", pdf, (n,), wi, u, " in pdf", other_name="u")
         wo = self._array("sample", wo, (n, 3), wi, u, " in wo", nonnegative=False, other_name="u")
         weight = self._array("sample", weight, (n, 3), wi, u, " in weight", other_name="u")
@@ -175,7 +186,7 @@ class CheckedBSDF:
             i = int(np.argmax(off))
             raise self.fault("sample", f"wo={_vec(wo[i])} is not a unit vector (|wo| − 1 = {norm_err[i]:.2g})",
                              wi[i], u[i], "u")
-        return BSDFSample(wo, weight, pdf)
+        return BSDFSample(wo, weight, pdf, delta)
 
 
 def checked(bsdf, name: str | None = None, params: dict | None = None) -> CheckedBSDF:

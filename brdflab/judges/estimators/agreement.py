@@ -8,9 +8,10 @@ estimators block by block with Welch's t-test on the replicate means (the replic
 estimator's own standard error, no variance model needed). The family-wise p-value over all pairs and
 blocks is Šidák's 1 − (1 − p_min)^m; the verdict is *agree* when it exceeds the significance (0.01).
 
-BSDF sampling cannot find delta (point) lights, so on a scene with point lights ``direct_mats`` is compared
-with ``direct_ems`` and ``direct_mis`` on a copy of the scene without them (:func:`without_delta_lights`),
+BSDF sampling cannot find delta (point) lights, so on a scene with point lights ``direct_mats`` (and ``path``,
+:data:`BSDF_ONLY`) is compared with the others on a copy of the scene without them (:func:`without_delta_lights`),
 while ``direct_ems`` and ``direct_mis`` are also compared on the full scene (MIS gives delta lights weight 1).
+The path tracers ``path``, ``path_nee``, ``path_mis`` (:data:`PATH_ESTIMATORS`) are compared the same way.
 
 :func:`forget_selection_probability` is the planted bug of the negative control: emitters are still chosen
 with their probabilities, but the light-sampling pdf omits them.
@@ -32,6 +33,10 @@ from brdflab.scene import BUNDLED_SCENES
 SIGNIFICANCE = 0.01
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 ESTIMATORS = ("direct_ems", "direct_mats", "direct_mis")
+#: The path tracers (spec §13.2.6–8): the same check applies to them (all three estimate the same image).
+PATH_ESTIMATORS = ("path", "path_nee", "path_mis")
+#: Estimators by BSDF sampling only: they cannot see delta (point) lights.
+BSDF_ONLY = ("direct_mats", "path")
 
 
 @dataclass
@@ -200,7 +205,7 @@ def estimator_agreement(path: str | Path, estimators=ESTIMATORS, spp: int = 8, r
     pairs = []
     for i, a in enumerate(estimators):
         for b in estimators[i + 1:]:
-            sees_all = "direct_mats" not in (a, b)
+            sees_all = not {a, b} & set(BSDF_ONLY)
             if not has_delta or sees_all:
                 pairs.append((a, b, True))
             if has_delta and all(reduced.get(e) is not None for e in (a, b)):

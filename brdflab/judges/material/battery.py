@@ -42,6 +42,8 @@ ALPHAS = (1e-3, 0.005, 0.05, 0.1, 0.3, 0.5, 1.0)
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 FURNACE_ALPHAS = (0.05, 0.1, 0.3, 0.5, 1.0)
 FURNACE_THETAS = tuple(float(t) for t in range(0, 90, 5))
+#: Incident angles from inside for the furnace of two-sided (transmissive) BSDFs.
+INSIDE_FURNACE_THETAS = (100.0, 120.0, 150.0, 175.0)
 
 
 def _seed(*parts) -> int:
@@ -116,7 +118,7 @@ def plan(bsdfs=None, warp_names: list[str] | None = None, alphas=ALPHAS, thetas=
     for entry in resolve_bsdfs(bsdfs, make):
         for point in entry.grid(params):
             for a in (alphas if entry.takes_alpha else (None,)):
-                for t in thetas:
+                for t in entry.angles(thetas):
                     tests.append(("bsdf", entry.name, a, t, point) if point else ("bsdf", entry.name, a, t))
     for name in warp_names if warp_names is not None else list(WARPS) + list(POINT_WARPS):
         if name in WARPS and WARPS[name][2]:
@@ -171,6 +173,10 @@ def _chi2_one(kind: str, name: str, a, t, n: int, threshold: float, prm: dict, e
         except Exception as exc:  # a plugin's constructor: a verdict, not a traceback
             return c2.faulted(name, shown, f"{name}({_fmt(prm)}) raised {type(exc).__name__}: {exc}", seed,
                               threshold, n)
+        if getattr(bsdf, "all_delta", False):  # no density to test: lobe frequencies, directions, weights
+            from brdflab.judges.material.delta import delta_test
+
+            return delta_test(bsdf, t, n, seed=seed, name=name, params=shown, threshold=threshold)
         return c2.bsdf_test(name, bsdf, t, n, seed=seed, params=shown, threshold=threshold)
     if name in POINT_WARPS:
         w, p, bounds = POINT_WARPS[name]
@@ -329,9 +335,14 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         if progress:
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control θ={t:g}: "
                      f"p = {r.p_value:.3g}")
-    checked_entries = [e for e in entries if e.checks]
+    if any(e.flag("has_transmission") for e in entries):
+        from brdflab.judges.material.transmission_controls import run_controls
+
+        bat.negative_control += run_controls(n, threshold, progress)
+    # Delta BSDFs have no density, f or albedo to integrate: their chi-square entry is the delta judge.
+    checked_entries = [e for e in entries if e.checks and not e.flag("all_delta")]
     cjobs = [(e.name, a, t, min(n, 200_000), {**params, **point}) for e in checked_entries for point in e.grid(params)
-             for a in (consistency_alphas if e.takes_alpha else (None,)) for t in consistency_thetas]
+             for a in (consistency_alphas if e.takes_alpha else (None,)) for t in e.angles(consistency_thetas)]
     if cluster is not None and make is None and all(e.by_name for e in checked_entries):
         from brdflab.cluster import iter_jobs, user_bsdf_classes
 
@@ -352,8 +363,9 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
             for a in (furnace_alphas if e.takes_alpha else (None,)):
                 try:
                     e.make(a, prm)
+                    inside = [t for t in INSIDE_FURNACE_THETAS if e.flag("two_sided")]
                     pts = furnace.albedo_curve(fname, lambda a, e=e, prm=prm: e.make(a, prm), a,
-                                               list(furnace_thetas), n=min(n, 100_000) // 2, params=prm)
+                                               list(furnace_thetas) + inside, n=min(n, 100_000) // 2, params=prm)
                 except Exception as exc:
                     pts = [furnace.AlbedoPoint(fname, a, 0.0, float("nan"), float("nan"), float("nan"),
                                                fault=f"{fname} raised {type(exc).__name__}: {exc}")]

@@ -171,7 +171,7 @@ def pearson(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, flo
 def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.ndarray], np.ndarray],
                     pilot: np.ndarray, *, seed: int | None = None, params: dict | None = None,
                     threshold: float = SIGNIFICANCE, shape: tuple[int, int] | None = None,
-                    mix_rng: np.random.Generator | None = None) -> Chi2Result:
+                    mix_rng: np.random.Generator | None = None, split_horizon: bool = False) -> Chi2Result:
     """Chi-square test of observed directions against a density, with bins from an independent pilot.
 
     Parameters
@@ -189,6 +189,8 @@ def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.n
         (n_theta, n_phi); default :func:`bin_shape` of ``n_total``.
     mix_rng
         Stream of the 10 % uniform directions mixed into the pilot.
+    split_horizon
+        Strips of each hemisphere apart (transmissive BSDFs, :func:`~brdflab.judges.core.binning.pilot_bins`).
     """
     nt, nph = shape or bin_shape(n_total)
     mix_rng = mix_rng or np.random.default_rng(seed)
@@ -197,7 +199,7 @@ def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.n
     extra = square_to_uniform_sphere(mix_rng.random((max(len(pilot) // 9, 200), 2)))
     z = np.array([0.0, 0.0, 1.0])
     pt, pp = to_angles(np.concatenate([np.asarray(pilot, dtype=float).reshape(-1, 3), extra]), z)
-    te, pe = pilot_bins(pt, pp, nt, nph)
+    te, pe = pilot_bins(pt, pp, nt, nph, split_horizon)
     th, ph = to_angles(np.asarray(wo, dtype=float).reshape(-1, 3), z)
     obs = bin_counts(th, ph, te, pe)
     mass, merr = integrate_sphere_bins(pdf, te, pe, n_total)
@@ -222,7 +224,7 @@ def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.n
 def sampler_test(name: str, sample: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
                  pdf: Callable[[np.ndarray], np.ndarray], n: int = 200_000, seed: int = 0,
                  params: dict | None = None, threshold: float = SIGNIFICANCE, uniforms: int = 3,
-                 shape: tuple[int, int] | None = None) -> Chi2Result:
+                 shape: tuple[int, int] | None = None, split_horizon: bool = False) -> Chi2Result:
     """Chi-square test of ``sample`` (uniforms (N, ``uniforms``) → (directions, pdf); pdf 0 = failed) vs ``pdf``.
 
     Three independent streams spawned from ``seed``: the pilot (bins), the observed sample, the uniform mix.
@@ -233,7 +235,7 @@ def sampler_test(name: str, sample: Callable[[np.ndarray], tuple[np.ndarray, np.
     pw, pp = sample(np.random.default_rng(s_pilot).random((max(n // 4, 2000), uniforms)))
     w, p = sample(np.random.default_rng(s_obs).random((n, uniforms)))
     return directions_test(name, w[p > 0], n, pdf, pw[pp > 0], seed=seed, params=params, threshold=threshold,
-                           shape=shape, mix_rng=np.random.default_rng(s_mix))
+                           shape=shape, mix_rng=np.random.default_rng(s_mix), split_horizon=split_horizon)
 
 
 def chi2_test(
@@ -292,7 +294,8 @@ def bsdf_test(name: str, bsdf, theta_deg: float, n: int, seed: int = 0, params: 
         return checked_bsdf.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w)
 
     try:
-        return sampler_test(name, sample, pdf, n=n, seed=seed, params=params, threshold=threshold)
+        return sampler_test(name, sample, pdf, n=n, seed=seed, params=params, threshold=threshold,
+                            split_horizon=bool(getattr(checked_bsdf.inner, "has_transmission", False)))
     except PluginFault as fault:
         return faulted(name, params, str(fault), seed, threshold, n)
 

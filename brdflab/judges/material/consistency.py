@@ -12,7 +12,10 @@ For one incident direction ω_i (θ_i in the x–z plane) and N samples of the B
   non-failed samples within 5 binomial standard errors (or 2·10⁻³) plus the quadrature error.
 * **Reciprocity**: f(ω_i, ω_o) = f(ω_o, ω_i) (relative 10⁻⁶) on random pairs of the upper hemisphere and
   on the sampled pairs (where f is large). Required unless the class declares ``reciprocal = False``;
-  always reported.
+  always reported. For a ``has_transmission`` BSDF the pairs cover the sphere and the radiance BTDF's
+  generalised form f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) is required (η_o/η_i from ``eta_ratio``; relative to at
+  least 10⁻⁹ of the largest f compared, since 1 − F cancels near total internal reflection), and the
+  weight is f·|cos θ_o|/p. A ``two_sided`` BSDF may be tested from inside (θ_i in [90°, 180°)).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 from brdflab.judges.core.guard import CheckedBSDF, PluginFault, bsdf_params, describe, format_params
 from brdflab.judges.core.seeding import bsdf_identity, test_seed
 from brdflab.judges.material.chi2 import incident, integrate_sphere_bins, pilot_bins, to_angles
+from brdflab.judges.material.furnace import energy_scale
 from brdflab.math import warps
 
 WEIGHT_RTOL = 1e-5
@@ -121,7 +125,7 @@ def pdf_mass(bsdf, wi1: np.ndarray, pilot_wo: np.ndarray, rng: np.random.Generat
     """∫ p(ω_i, ·) dω over the sphere (and its error) on bins placed by ``pilot_wo`` plus uniform directions."""
     mix = warps.square_to_uniform_sphere(rng.random((max(len(pilot_wo) // 9, 500), 2)))
     th, ph = to_angles(np.concatenate([pilot_wo, mix]), np.array([0.0, 0.0, 1.0]))
-    te, pe = pilot_bins(th, ph, *shape)
+    te, pe = pilot_bins(th, ph, *shape, split_horizon=bool(getattr(bsdf, "has_transmission", False)))
     val, err = integrate_sphere_bins(
         lambda w: bsdf.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w), te, pe, n=10**6)
     return float(val.sum()), float(err.sum())
@@ -158,7 +162,7 @@ def consistency_test(bsdf, theta: float = 45.0, samples: int = 100_000, seed: in
     """
     from brdflab.limits import check_test_arguments
 
-    theta, samples, _ = check_test_arguments(theta, samples)
+    theta, samples, _ = check_test_arguments(theta, samples, two_sided=bool(getattr(bsdf, "two_sided", False)))
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     if seed is None:
@@ -166,6 +170,12 @@ def consistency_test(bsdf, theta: float = 45.0, samples: int = 100_000, seed: in
     b = CheckedBSDF(bsdf, name, params)
     s_obs, s_mass, s_rec = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3))
     n = int(samples)
+    if getattr(bsdf, "all_delta", False):  # eval and pdf are 0 by the contract: nothing here can judge it
+        r = ConsistencyResult(name, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), 0,
+                              reciprocal=b.reciprocal, n=n, seed=seed, params=params,
+                              fault="a delta BSDF (all_delta) has no density: judge it with delta_test")
+        r.message = r.summary()
+        return r
     try:
         return _check(b, name, float(theta), n, seed, params, s_obs, s_mass, s_rec)
     except PluginFault as fault:
@@ -184,7 +194,8 @@ def _check(b: CheckedBSDF, name, theta, n, seed, params, rng, rng_mass, rng_rec)
     ok = s.pdf > 0
     f = b.eval(wi, s.wo)
     p_eval = b.pdf(wi, s.wo)
-    cos_o = s.wo[:, 2]
+    transmits = bool(getattr(b.inner, "has_transmission", False))
+    cos_o = np.abs(s.wo[:, 2]) if transmits else s.wo[:, 2]  # weight = f·|cos θ_o|/p for transmission
     good = ok & (cos_o > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         expect = np.where(good[:, None], f * (cos_o / np.where(ok, s.pdf, 1.0))[:, None], 0.0)
@@ -206,15 +217,23 @@ def _check(b: CheckedBSDF, name, theta, n, seed, params, rng, rng_mass, rng_rec)
     integral, ierr = pdf_mass(b, wi1, pilot, rng_mass)
     # Reciprocity on uniform upper-hemisphere pairs and on the sampled pairs (where f matters).
     m = min(n, 20_000)
-    a = warps.square_to_uniform_hemisphere(rng_rec.random((m, 2)))
-    c = warps.square_to_uniform_hemisphere(rng_rec.random((m, 2)))
+    pairs = warps.square_to_uniform_sphere if transmits else warps.square_to_uniform_hemisphere
+    a, c = pairs(rng_rec.random((m, 2))), pairs(rng_rec.random((m, 2)))
     sw = s.wo[good][:m]
     A, C = np.concatenate([a, np.broadcast_to(wi1, sw.shape)]), np.concatenate([c, sw])
     fac, fca = b.eval(A, C), b.eval(C, A)
-    rec = _relerr(fac, fca).max(axis=1)
+    if transmits:  # the radiance BTDF: f(ω_i, ω_o)·(η_o/η_i)² = f(ω_o, ω_i) (generalised reciprocity)
+        fac = fac * energy_scale(b, A, C)[:, None]
+        # relative to 10⁻⁹ of the largest f at least: 1 − F cancels near total internal reflection, where f → 0
+        floor = 1e-9 * float(max(fac.max(), fca.max(), 0.0)) if len(fac) else 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rec = (np.abs(fac - fca) / np.maximum(np.maximum(np.abs(fac), np.abs(fca)), max(floor, 1e-30))).max(axis=1)
+    else:
+        rec = _relerr(fac, fca).max(axis=1)
     if len(rec) and rec.max() > RECIPROCITY_RTOL:
         i = int(np.argmax(rec))
-        problems.append(f"f(wi, wo) ≠ f(wo, wi) by {rec[i]:.1e} at wi={_vec(A[i])}, wo={_vec(C[i])}"
+        what = "f(wi, wo)·(η_o/η_i)² ≠ f(wo, wi)" if transmits else "f(wi, wo) ≠ f(wo, wi)"
+        problems.append(f"{what} by {rec[i]:.1e} at wi={_vec(A[i])}, wo={_vec(C[i])}"
                         + ("" if b.reciprocal else " (declared non-reciprocal: not required)"))
     r = ConsistencyResult(name, theta, float(werr.max()), integral, float(ok.mean()),
                           float(rec.max()) if len(rec) else 0.0, 0, float(perr.max()), ierr, b.reciprocal, n,

@@ -13,9 +13,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.bsdf.dielectric import Dielectric
 from brdflab.bsdf.diffuse import Diffuse
 from brdflab.bsdf.microfacet import beckmann_d, half_vector
+from brdflab.bsdf.mirror import Mirror
 from brdflab.bsdf.roughconductor import RoughConductor, alpha_values
+from brdflab.bsdf.roughdielectric import RoughDielectric
 from brdflab.bsdf.roughsubstrate import RoughSubstrate
 from brdflab.judges.core.guard import describe
 from brdflab.math import warps
@@ -41,6 +44,10 @@ BSDFS: dict[str, Callable] = {
                                                                   kw.get("extIOR", 1.000277), lobe="specular"),
     "roughsubstrate/diffuse": lambda alpha, **kw: RoughSubstrate(kw.get("kd", 0.5), alpha, kw.get("intIOR", 1.5046),
                                                                  kw.get("extIOR", 1.000277), lobe="diffuse"),
+    "mirror": lambda alpha, **kw: Mirror(),
+    "dielectric": lambda alpha, **kw: Dielectric(kw.get("intIOR", 1.5046), kw.get("extIOR", 1.000277)),
+    "roughdielectric": lambda alpha, **kw: RoughDielectric(alpha, kw.get("intIOR", 1.5046), kw.get("extIOR", 1.000277),
+                                                           kw.get("ka", 1.0)),
 }
 
 
@@ -112,6 +119,22 @@ class BSDFEntry:
     def make(self, alpha: float | None, params: dict | None = None):
         """Build the BSDF (``alpha`` ignored without roughness)."""
         return self.factory(alpha if self.takes_alpha else None, dict(params or {}))
+
+    def flag(self, name: str) -> bool:
+        """A class attribute of the contract (``all_delta``, ``two_sided``, ``has_transmission``) of the BSDF
+        this entry builds (False when a prototype cannot be built without parameters)."""
+        if not hasattr(self, "_flags"):
+            try:
+                proto = self.make(0.1, {})
+            except Exception:  # noqa: BLE001 - the tests themselves report a constructor's error
+                proto = None
+            self._flags = {k: bool(getattr(proto, k, False)) for k in ("all_delta", "two_sided", "has_transmission")}
+        return self._flags[name]
+
+    def angles(self, thetas) -> tuple[float, ...]:
+        """``thetas`` and, for a two-sided BSDF, the same angles from inside (180° − θ for θ > 0)."""
+        thetas = tuple(thetas)
+        return thetas + tuple(180.0 - t for t in thetas if t > 0) if self.flag("two_sided") else thetas
 
     def grid(self, params: dict | None = None) -> list[dict]:
         """Parameter points of the sweep (the product of :attr:`sweep`, minus explicitly given keys)."""

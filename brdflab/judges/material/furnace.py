@@ -14,6 +14,9 @@ Two independent estimates must agree:
   where the cells are fine; the value comes from ``eval`` alone.
 * **Monte Carlo**: the mean of the BSDF's own sample weights f cos θ_o / p, with its standard error.
 
+For a ``has_transmission`` BSDF both estimates cover the whole sphere and weigh each direction by the energy
+scale (η_o/η_i)² (:func:`energy_scale`): ρ is then reflection + transmission, which must be ≤ 1.
+
 The check fails — with a message, never silently — when ρ exceeds 1 beyond its uncertainty, or when the
 two estimates differ by more than 4 combined standard errors (+ 5·10⁻⁴): then ``eval``, ``pdf`` and
 ``sample`` do not describe the same BSDF (e.g. a sampler that misses part of the lobe, a weight without
@@ -119,14 +122,23 @@ def albedo_quadrature_with_error(bsdf, theta_deg: float, seed: int = 0, pilot: i
     r = b.sample(wi, np.random.default_rng(s_pilot).random((pilot, 3)))
     from brdflab.math.warps import square_to_cosine_hemisphere
 
-    mix = square_to_cosine_hemisphere(np.random.default_rng(s_mix).random((pilot // 9, 2)))
-    pts = np.concatenate([r.wo[(r.pdf > 0) & (r.wo[:, 2] > 0)], mix])
+    transmits = bool(getattr(b.inner, "has_transmission", False))
+    if transmits:  # the whole sphere, each direction's energy weighted by (η_o/η_i)² (see energy_scale)
+        from brdflab.math.warps import square_to_uniform_sphere as mixer
+    else:
+        mixer = square_to_cosine_hemisphere
+    mix = mixer(np.random.default_rng(s_mix).random((pilot // 9, 2)))
+    pts = np.concatenate([r.wo[(r.pdf > 0) & ((r.wo[:, 2] != 0) if transmits else (r.wo[:, 2] > 0))], mix])
     th, ph = to_angles(pts, np.array([0.0, 0.0, 1.0]))
-    te, pe = pilot_bins(th, ph, *shape)
-    te = np.minimum(te, np.pi / 2)  # f = 0 below the horizon: those strips get zero width
+    te, pe = pilot_bins(th, ph, *shape, split_horizon=transmits)
+    if not transmits:
+        te = np.minimum(te, np.pi / 2)  # f = 0 below the horizon: those strips get zero width
 
     def integrand(wo):
-        f = b.eval(np.ascontiguousarray(np.broadcast_to(wi1, (len(wo), 3))), wo)
+        wi = np.ascontiguousarray(np.broadcast_to(wi1, (len(wo), 3)))
+        f = b.eval(wi, wo)
+        if transmits:
+            return _luminance(f) * np.abs(wo[:, 2]) * energy_scale(b, wi, wo)
         return _luminance(f) * np.maximum(wo[:, 2], 0.0)
 
     val, err = integrate_sphere_bins(integrand, te, pe, n=10**7)
@@ -143,8 +155,22 @@ def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0,
     """ρ(θ_i) as the mean sample weight (luminance) and its standard error."""
     rng = np.random.default_rng(seed)
     wi = np.ascontiguousarray(np.broadcast_to(incident(theta_deg, phi_deg), (n, 3)))
-    w = _luminance(bsdf.sample(wi, rng.random((n, 3))).weight)
+    s = bsdf.sample(wi, rng.random((n, 3)))
+    w = _luminance(s.weight)
+    if getattr(bsdf, "has_transmission", False):
+        w = w * energy_scale(bsdf, wi, s.wo)
     return float(w.mean()), float(w.std(ddof=1) / np.sqrt(n))
+
+
+def energy_scale(bsdf, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """(η_o/η_i)² (N,): the energy a radiance weight carries across an interface (1 for reflection).
+
+    A transmissive BSDF's f is the radiance BTDF, whose refracted weight is (η_i/η_o)² times the transmitted
+    fraction of the energy; the white furnace of such a material is reflection + transmission
+    ∫ f |cos θ_o| (η_o/η_i)² dω_o ≤ 1 (= 1 for a smooth, lossless interface).
+    """
+    ratio = getattr(bsdf, "eta_ratio", None)  # a duck-typed plugin without it: one medium (1)
+    return np.ones(len(wi)) if ratio is None else np.asarray(ratio(wi, wo), dtype=np.float64) ** 2
 
 
 def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int | None = None,
@@ -187,6 +213,12 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
     b = CheckedBSDF(bsdf, name, params)
     s_quad, s_mc = np.random.SeedSequence(seed).spawn(2)
     phi = round(test_azimuth(seed), 3)  # the test's own azimuth: a sampler must rotate with ω_i
+    if getattr(bsdf, "all_delta", False):  # f is 0 by the contract: the delta judge checks its energy
+        p = AlbedoPoint(name, alpha, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), seed,
+                        params, fault="a delta BSDF (all_delta) has no f to integrate: its energy weight·(η_o/η_i)² "
+                        "is checked per sample by delta_test")
+        p.message = p.summary()
+        return p
     try:
         q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]), phi_deg=phi)
         m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]), phi_deg=phi)
@@ -276,7 +308,8 @@ def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, se
 
     thetas = (theta,) if theta is not None else tuple(thetas)
     check_test_arguments(None, samples)
-    thetas = tuple(check_test_arguments(t, samples)[0] for t in thetas)
+    two = bool(getattr(bsdf, "two_sided", False))
+    thetas = tuple(check_test_arguments(t, samples, two_sided=two)[0] for t in thetas)
     params = dict(params if params is not None else bsdf_params(bsdf))
     name = name or describe(bsdf)
     base = test_seed("furnace", bsdf_identity(bsdf), params) if seed is None else seed

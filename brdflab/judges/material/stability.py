@@ -92,7 +92,23 @@ def materials() -> dict[str, object]:
     out["roughsubstrate η=1/1 (equal)"] = RoughSubstrate(0.5, 0.1, 1.0, 1.0)
     out["roughsubstrate η=10/1"] = RoughSubstrate(0.5, 0.1, 10.0, 1.0)
     out["roughsubstrate η=1/10 (inverted)"] = RoughSubstrate(0.5, 0.1, 1.0, 10.0)
+    _transmissive(out)
     return out
+
+
+def _transmissive(out: dict[str, object]) -> None:
+    """The delta and transmissive materials (issue 44) at extreme α and index ratios."""
+    from brdflab.bsdf.dielectric import Dielectric
+    from brdflab.bsdf.mirror import Mirror
+    from brdflab.bsdf.roughdielectric import RoughDielectric
+
+    out["mirror"] = Mirror()
+    for a in (1e-4, 1e-3, 0.5, 1.0):
+        out[f"roughdielectric α={a:g}"] = RoughDielectric(a)
+    for label, (i, e) in {"η=1.0001/1": (1.0001, 1.0), "η=1/1 (equal)": (1.0, 1.0), "η=10/1": (10.0, 1.0),
+                          "η=1/10 (inverted)": (1.0, 10.0)}.items():
+        out[f"dielectric {label}"] = Dielectric(i, e)
+        out[f"roughdielectric {label}"] = RoughDielectric(0.1, i, e)
 
 
 def _count(x: np.ndarray) -> tuple[int, int, int]:
@@ -110,7 +126,7 @@ def _row(mname: str, cname: str, bsdf, wi: np.ndarray, wo: np.ndarray, u: np.nda
         f = proxy._call("eval", wi, wo, None)
         p = proxy._call("pdf", wi, wo, None)
         s = proxy._call("sample", wi, u, None)
-        swo, sw, sp = s
+        swo, sw, sp = s[:3] if isinstance(s, tuple) and len(s) == 4 else s  # delta (4th field) may be None
         out = {"eval": f, "pdf": p, "sample.wo": swo, "sample.weight": sw, "sample.pdf": sp}
         out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
     except PluginFault as fault:

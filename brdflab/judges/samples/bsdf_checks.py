@@ -207,6 +207,11 @@ def check_samples(samples: str | Path | Samples, against, *, alpha: float | None
     notes, fit = _parameters(against, kind, alpha, params, make)
     out = []
     for gi, idx in enumerate(groups):
+        if kind == "bsdf" and getattr(ref, "all_delta", False):  # no density: the delta judge
+            from brdflab.judges.samples.delta_samples import check_delta_group
+
+            out.append(check_delta_group(s, idx, name, ref, thr))
+            continue
         out.append(_check_group(s, idx, name, kind, ref, int(np.random.SeedSequence([seed, gi]).generate_state(1)[0]),
                                 thr, fit))
     res = ExternalResult(s.path, name, {"alpha": alpha, **params} if alpha is not None else params, out, thr)
@@ -276,6 +281,8 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
                           f"within {WI_TOLERANCE:g} are grouped)")
         return g
     valid = ~failed
+    # A transmissive reference (glass): directions below the surface are samples, not failures.
+    both = kind == "bsdf" and bool(getattr(ref, "has_transmission", False))
     s_pilot, s_mix, s_sc = np.random.SeedSequence(seed).spawn(3)
     n_pilot = max(len(idx) // 2, 4000)
     b = None
@@ -291,24 +298,25 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             b = CheckedBSDF(ref, name)
             wi_p = np.ascontiguousarray(np.broadcast_to(wi1, (n_pilot, 3)))
             r = b.sample(wi_p, np.random.default_rng(s_pilot).random((n_pilot, 3)))
-            pilot = r.wo[(r.pdf > 0) & (r.wo[:, 2] > 0)]
+            pilot = r.wo[(r.pdf > 0) & ((r.wo[:, 2] > 0) | both)]
 
             def pdf_fn(w):
                 p = b.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w)
-                return np.where(w[:, 2] > 0, p, 0.0)  # below the horizon counts as failed (module docstring)
+                return np.where((w[:, 2] > 0) | both, p, 0.0)  # below the horizon counts as failed (docstring)
 
-            obs = wo_n[valid & (wo_n[:, 2] > 0)]
+            obs = wo_n[valid & ((wo_n[:, 2] > 0) | both)]
             wi_all = np.ascontiguousarray(np.broadcast_to(wi1, (len(idx), 3)))
             ours = b.pdf(wi_all, wo_n) if s.pdf is not None else None
         g.chi2 = c2.directions_test(f"{name} (file)", obs, len(idx), pdf_fn, pilot, seed=seed,
                                     params={"wi": tuple(np.round(wi1, 6))}, threshold=thr,
-                                    mix_rng=np.random.default_rng(s_mix))
-        cmp = valid & (wo_n[:, 2] > 0) if kind == "bsdf" else valid
+                                    mix_rng=np.random.default_rng(s_mix), split_horizon=both)
+        cmp = valid & ((wo_n[:, 2] > 0) | both) if kind == "bsdf" else valid
         p_true = None  # the true density of the sampled directions at the compared samples, when known
         if s.pdf is not None and cmp.any():
             fp = s.pdf[idx][cmp]
             # Method-agnostic: the directions against their own pdf column (brdflab's pdf only shapes the bins).
-            binning = _sc.make_binning(wo_n[cmp], len(idx), pdf_fn, pilot, np.random.default_rng(s_sc))
+            binning = _sc.make_binning(wo_n[cmp], len(idx), pdf_fn, pilot, np.random.default_rng(s_sc),
+                                       split_horizon=both)
             g.sc = _sc.self_consistency_test(wo_n[cmp], fp, len(idx), pdf_fn, pilot, threshold=thr, binning=binning)
             if g.sc.blind and not g.chi2.passed and kind == "bsdf":  # another method, far from brdflab's
                 alt = _sc.rescue(wo_n[cmp], fp, len(idx), thr, np.random.default_rng(s_sc))
@@ -345,7 +353,8 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             # it is right, whatever the method; brdflab's pdf without a usable column.
             p_w = p_true if p_true is not None else (s.pdf[idx][cmp] if s.pdf is not None else b.pdf(wi_k, wo_n[cmp]))
             with np.errstate(divide="ignore", invalid="ignore"):
-                ow = np.where(p_w[:, None] > 0, f * (wo_n[cmp][:, 2] / p_w)[:, None], 0.0)
+                cos_o = np.abs(wo_n[cmp][:, 2]) if both else wo_n[cmp][:, 2]  # f·|cos θo|/p for transmission
+                ow = np.where(p_w[:, None] > 0, f * (cos_o / p_w)[:, None], 0.0)
             fw = s.weight[idx][cmp]
             lum = hints.LUMINANCE
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):

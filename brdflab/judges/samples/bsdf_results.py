@@ -196,6 +196,10 @@ class ExternalResult:
             bits.append(f"pdf vs brdflab worst rel. error {g.pdf.max_rel_error:.2g}")
         if g.weight is not None:
             bits.append(f"weight worst rel. error {g.weight.max_rel_error:.2g}")
+        if getattr(g.chi2, "delta", False):  # a delta BSDF's samples: the delta judge's line says it all
+            conv = getattr(g.chi2, "convention", "")
+            return [head, "  " + g.chi2.message + (f"; refraction weights {conv}" if conv else ""),
+                    *("  " + p for p in g.problems)]
         out.append(head + (": " + ", ".join(bits) if bits else ""))
         ours = f"brdflab's {self.against} pdf"
         chi_txt = "" if g.chi2 is None else (g.chi2.fault or f"chi2 p = {g.chi2.p_value:.3g}")

@@ -145,7 +145,8 @@ class SelfConsistency:
 
 
 def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], np.ndarray], pilot: np.ndarray,
-                 mix_rng: np.random.Generator, shape: tuple[int, int] | None = None) -> Binning:
+                 mix_rng: np.random.Generator, shape: tuple[int, int] | None = None,
+                 split_horizon: bool = False) -> Binning:
     """Bins from the reference pilot, r-mass per bin by quadrature, and the cell of each valid sample.
 
     Parameters
@@ -158,6 +159,8 @@ def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], n
         (m, 3) directions from r's own sampler (independent of ``wo``): they place the bins only.
     shape
         (n_theta, n_phi); default about N/100 bins (:func:`brdflab.judges.material.chi2.bin_shape` of N/4).
+    split_horizon
+        Each hemisphere its own strips (a transmissive reference, :func:`brdflab.judges.core.binning.pilot_bins`).
     """
     from brdflab.math.warps import square_to_uniform_sphere
 
@@ -165,7 +168,7 @@ def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], n
     z = np.array([0.0, 0.0, 1.0])
     extra = square_to_uniform_sphere(mix_rng.random((max(len(pilot) // 9, 200), 2)))
     pt, pp = c2.to_angles(np.concatenate([np.asarray(pilot, dtype=float).reshape(-1, 3), extra]), z)
-    te, pe = c2.pilot_bins(pt, pp, nt, nph)
+    te, pe = c2.pilot_bins(pt, pp, nt, nph, split_horizon)
     mass, merr = c2.integrate_sphere_bins(ref_pdf, te, pe, n_total)
     mass = mass.ravel()
     th, ph = c2.to_angles(np.asarray(wo, dtype=float).reshape(-1, 3), z)
