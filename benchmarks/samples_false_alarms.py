@@ -63,15 +63,15 @@ def main() -> None:
         for method in ("brdflab", "visible normals"):
             rng = np.random.default_rng([a.seed, n, len(method)])
             alarms, worst = 0, []
-            for k in range(a.files):
+            for _ in range(a.files):
                 alpha, theta = one_file(tmp / "s.txt", rng, n, method)
                 res = check_samples(tmp / "s.txt", "roughconductor", alpha=alpha, params={"R0": 0.9})
                 if not res.passed:
                     alarms += 1
                     worst.append(f"α {alpha:.3g} θ {theta:.0f}°: {res.messages()[1][:100]}")
             lo, hi = clopper_pearson(alarms, a.files)
-            print(f"n = {n:5d} per file, {method:15s}: {alarms}/{a.files} false alarms = {100 * alarms / a.files:.1f} % "
-                  f"(95 % CI {100 * lo:.1f}–{100 * hi:.1f} %)", flush=True)
+            print(f"n = {n:5d} per file, {method:15s}: {alarms}/{a.files} false alarms = "
+                  f"{100 * alarms / a.files:.1f} % (95 % CI {100 * lo:.1f}–{100 * hi:.1f} %)", flush=True)
             for w in worst[:3]:
                 print("    " + w)
 
