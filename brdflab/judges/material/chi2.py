@@ -199,7 +199,7 @@ def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.n
     extra = square_to_uniform_sphere(mix_rng.random((max(len(pilot) // 9, 200), 2)))
     z = np.array([0.0, 0.0, 1.0])
     pt, pp = to_angles(np.concatenate([np.asarray(pilot, dtype=float).reshape(-1, 3), extra]), z)
-    te, pe = pilot_bins(pt, pp, nt, nph, split_horizon)
+    te, pe = pilot_bins(pt, pp, nt, nph, split_horizon, grazing=shape is None)
     th, ph = to_angles(np.asarray(wo, dtype=float).reshape(-1, 3), z)
     obs = bin_counts(th, ph, te, pe)
     mass, merr = integrate_sphere_bins(pdf, te, pe, n_total)

@@ -168,11 +168,11 @@ def make_binning(wo: np.ndarray, n_total: int, ref_pdf: Callable[[np.ndarray], n
     z = np.array([0.0, 0.0, 1.0])
     extra = square_to_uniform_sphere(mix_rng.random((max(len(pilot) // 9, 200), 2)))
     pt, pp = c2.to_angles(np.concatenate([np.asarray(pilot, dtype=float).reshape(-1, 3), extra]), z)
-    te, pe = c2.pilot_bins(pt, pp, nt, nph, split_horizon)
+    te, pe = c2.pilot_bins(pt, pp, nt, nph, split_horizon, grazing=shape is None)
     mass, merr = c2.integrate_sphere_bins(ref_pdf, te, pe, n_total)
     mass = mass.ravel()
     th, ph = c2.to_angles(np.asarray(wo, dtype=float).reshape(-1, 3), z)
-    nb = nt * nph
+    nb = mass.size  # the strips of pilot_bins (its thin grazing strips included) × n_phi
     flat = _bin_index(th, ph, te, pe)
     small = mass * n_total < MIN_EXPECTED
     bin_cell = np.empty(nb, dtype=np.int64)
