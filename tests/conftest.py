@@ -15,11 +15,9 @@ def pytest_sessionstart(session) -> None:
     the tests that compare the engines need them, and with them every test process and subprocess runs
     the same engine from its first test on (without, a run's processes would switch from the NumPy engine
     to the compiled one when the background build ends)."""
-    from brdflab import kernels
+    from brdflab.kernels import ensure_built
 
-    if kernels._numba_available() and kernels.asked() != "numpy":
-        with kernels.use_engine("numba"):
-            kernels.preload()
+    ensure_built()
 
 QUAD_OBJ = """v -1 0 -1
 v 1 0 -1

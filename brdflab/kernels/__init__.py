@@ -292,6 +292,16 @@ def for_object(obj: object, kind: str) -> ModuleType | None:
 MODULES = ("bsdf", "direct", "emitter", "film", "shading")
 
 
+def ensure_built() -> bool:
+    """Wait for the prebuilt kernels (building them now if needed), unless the NumPy engine is asked for or
+    numba is missing: for runs whose every process must use the compiled engine from the start (the test
+    suite's first step, ``brdflab bench``). True when the compiled kernels are loaded in this process."""
+    if asked() == "numpy" or not _numba_available():
+        return False
+    with use_engine("numba"):
+        return compiled()
+
+
 def preload() -> None:
     """Decide the engine and load the kernels now (in a process about to fork workers, which then share
     them and the decision); nothing with the NumPy engine."""
@@ -321,4 +331,4 @@ def twin(kind: str, name: str):
 
 
 __all__ = ["ENGINES", "asked", "engine", "KernelNotice", "set_engine", "use_engine", "compiled", "load",
-           "for_object", "twin", "preload", "MODULES", "costs", "backend"]
+           "for_object", "twin", "preload", "ensure_built", "MODULES", "costs", "backend"]
