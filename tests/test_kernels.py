@@ -239,10 +239,13 @@ def test_second_process_loads_the_kernels_from_the_disk_cache():
             "Film(8, 8, Filter()).splat(np.full(2, 3.0), np.full(2, 3.0), np.ones((2, 3))); "
             "print(kernels.costs()['compile'])")
     env = {**os.environ, "BRDFLAB_AOT": "0", "BRDFLAB_ENGINE": "numba"}  # the JIT and its disk cache
-    runs = [subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, env=env)
-            for _ in range(2)]
+    runs = []
+    for _ in range(2):  # the session's kernel build compiled through the JIT and left its cache: usually one run
+        runs.append(subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, env=env))
+        if runs[-1].returncode != 0 or float(runs[-1].stdout) == 0.0:
+            break
     assert all(r.returncode == 0 for r in runs), runs[-1].stderr
-    assert float(runs[1].stdout) == 0.0, [r.stdout for r in runs]
+    assert float(runs[-1].stdout) == 0.0, [r.stdout for r in runs]
 
 
 def test_engine_switch_on_the_command_line(tmp_path):
