@@ -156,3 +156,12 @@ def test_startup_does_not_count_what_a_shell_ran_before_exec():
     out = subprocess.run(["bash", "-c", f'sleep 3 && exec "{sys.executable}" -c "{code}"'], capture_output=True,
                          text=True, timeout=60)
     assert float(out.stdout) < 2.5, out
+
+
+def test_the_time_limit_predicts_the_next_pass_from_the_passes_after_the_first():
+    """--time-limit decides whether the next pass fits from the rate after the first pass (which holds the
+    one-off costs): a first pass of 5 s then passes at 0.1 s per spp predict 0.1 s per spp, not 1.7 s."""
+    from brdflab.renderer import _seconds_per_spp
+
+    assert _seconds_per_spp([(1, 5.0)]) == 5.0
+    assert _seconds_per_spp([(1, 5.0), (2, 5.1), (4, 5.3)]) == pytest.approx(0.1)
