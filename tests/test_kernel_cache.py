@@ -201,6 +201,7 @@ def test_a_full_disk_during_the_build_names_the_folder(tmp_path):
     entry = cache._inspect(root, aot.key())
     assert entry.state == "failed" and f"no space left on device in {root}" in aot.summary(entry.message)
     assert sorted(p.name for p in (root / aot.key()).iterdir()) == [cache.FAILED]
+    assert "failed" in (root / cache.LOG).read_text()
     r = _render(tmp_path, root)
     assert r.returncode == 0 and (tmp_path / "out" / "x.exr").is_file(), r.stderr[-2000:]
     assert len(_warnings(r.stderr)) == 1 and f"no space left on device in {root}" in r.stderr, r.stderr
@@ -223,7 +224,7 @@ def test_stray_files_do_not_force_rebuilds(tmp_path):
     for _ in range(2):
         assert aot.run_build(root, "k1", counting) == 0
     assert len(calls) == 1 and cache._inspect(root, "k1").state == "built"
-    assert sorted(p.name for p in root.iterdir()) == [".build.lock", ".stray-folder-x", "k1", "notes.txt"]
+    assert sorted(p.name for p in root.iterdir()) == [".build.lock", ".stray-folder-x", cache.LOG, "k1", "notes.txt"]
     manifest = json.loads((root / "k1" / cache.MANIFEST).read_text())
     assert manifest["sha256"] == cache.sha256(root / "k1" / cache.module_name())
     # A damaged build at the key's place (its module cut short) is replaced by the next build.
@@ -271,9 +272,10 @@ def test_ctrl_c_during_a_first_build_is_honoured_at_once(tmp_path):
 
 
 def test_concurrent_first_runs_one_build_none_waits(tmp_path):
-    """Two first runs at once on an empty cache, as two terminals or a cluster's workers: the one that asks
-    for nothing renders on the NumPy engine at once and says so in one line, the one that asks for the
-    compiled engine waits for the single build; nothing is left in ``$TMPDIR`` or the cache but the build;
+    """Three first runs at once on an empty cache, as terminals or a cluster's workers: the one that asks
+    for nothing runs on the NumPy engine at once and says so in one line, the two that ask for the compiled
+    engine wait for the single build (a lock: the builders after the first find the module built); nothing
+    is left in ``$TMPDIR`` or the cache but the build;
     the next run loads the module, quietly."""
     root, tmpdir = tmp_path / "cache", tmp_path / "tmpdir"
     root.mkdir(mode=0o700)
@@ -282,14 +284,16 @@ def test_concurrent_first_runs_one_build_none_waits(tmp_path):
     code = PROBE + "import time; time.sleep(0.5)\n"  # both alive together
     procs = [subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True, env={**env, **extra})
-             for extra in ({}, {"BRDFLAB_ENGINE": "numba"})]
-    (auto_out, auto_err), (strict_out, strict_err) = (p.communicate(timeout=900) for p in procs)  # hang bound
+             for extra in ({}, {"BRDFLAB_ENGINE": "numba"}, {"BRDFLAB_ENGINE": "numba"})]
+    (auto_out, auto_err), *strict = (p.communicate(timeout=900) for p in procs)  # hang bound
     assert auto_out.split() == ["numpy", "-", "False"], auto_err[-2000:]
     lines = _warnings(auto_err)
     assert len(lines) == 1 and "this run uses the NumPy engine" in lines[0], auto_err
-    assert strict_out.split() == ["numba", "aot", "True"], strict_err[-2000:]
+    for out, err in strict:  # like two workers of a cluster, told the compiled engine by their client
+        assert out.split() == ["numba", "aot", "True"], err[-2000:]
     aot.wait_for_build(root)
-    assert sorted(p.name for p in root.iterdir()) == [".build.lock", aot.key()]
+    assert sorted(p.name for p in root.iterdir()) == [".build.lock", aot.key(), cache.LOG]
+    assert len((root / cache.LOG).read_text().splitlines()) == 1  # one build
     assert list(tmpdir.iterdir()) == []
     again = _probe(root, BRDFLAB_AOT_BUILD="1")
     assert again.stdout.split() == ["numba", "aot", "True"] and again.stderr == "", again.stderr[-2000:]

@@ -224,6 +224,9 @@ def run_build(root: Path, k: str, compile_into=None) -> int:
                     shutil.rmtree(p) if p.is_dir() else p.unlink()
                 (tmp / FAILED).write_text(_failure(e, root))
             cache.install(tmp, root / k)
+            with contextlib.suppress(OSError), open(root / cache.LOG, "a", encoding="utf-8") as log:
+                log.write(f"{time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())} {k} "
+                          f"{'failed' if (root / k / FAILED).exists() else 'built'} by pid {os.getpid()}\n")
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     return 0

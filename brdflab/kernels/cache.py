@@ -14,9 +14,9 @@ that this user did not build (issue 41):
 * **Layout**: ``ROOT/<key>/`` holds ``brdflab_kernels<suffix>`` and ``manifest.json``, or
   ``build-failed.txt`` (the error of a build that failed; delete it to try again). Builds happen in
   ``ROOT/.tmp-<key>-*`` (the compiler's temporaries included: nothing is left in ``$TMPDIR``) under the lock
-  ``ROOT/.build.lock``, and are renamed into place; anything else in ``ROOT`` (a stray file, an old key) is
-  ignored, and whatever sits at ``ROOT/<key>`` without a valid build (a stray file, a damaged module) is
-  replaced by the next build.
+  ``ROOT/.build.lock``, and are renamed into place (and logged in ``ROOT/builds.log``); anything else in
+  ``ROOT`` (a stray file, an old key) is ignored, and whatever sits at ``ROOT/<key>`` without a valid build
+  (a stray file, a damaged module) is replaced by the next build.
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ FAILED = "build-failed.txt"
 #: Beside ``FAILED`` once a process has reported the failure (it is said once, not in every run).
 REPORTED = "build-failed.reported"
 LOCK = ".build.lock"
+#: One line per build (date, key, built or failed, the builder's pid): what was built, and how often.
+LOG = "builds.log"
 TMP_PREFIX = ".tmp-"
 
 
