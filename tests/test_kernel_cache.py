@@ -19,6 +19,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -221,8 +222,10 @@ def test_stray_files_do_not_force_rebuilds(tmp_path):
         calls.append(folder)
         _fake_compile(folder)
 
+    before = os.environ.get("TMPDIR"), tempfile.gettempdir()
     for _ in range(2):
         assert aot.run_build(root, "k1", counting) == 0
+    assert (os.environ.get("TMPDIR"), tempfile.gettempdir()) == before  # the caller's TMPDIR is its own again
     assert len(calls) == 1 and cache._inspect(root, "k1").state == "built"
     assert sorted(p.name for p in root.iterdir()) == [".build.lock", ".stray-folder-x", cache.LOG, "k1", "notes.txt"]
     manifest = json.loads((root / "k1" / cache.MANIFEST).read_text())

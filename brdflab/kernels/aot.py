@@ -210,6 +210,7 @@ def run_build(root: Path, k: str, compile_into=None) -> int:
         tmp = Path(tempfile.mkdtemp(prefix=f"{cache.TMP_PREFIX}{k}-", dir=root))
         scratch = tmp / "tmp"
         scratch.mkdir()
+        saved = os.environ.get("TMPDIR"), tempfile.tempdir
         os.environ["TMPDIR"] = str(scratch)
         tempfile.tempdir = None  # the compiler's temporary files go to the build folder
         try:
@@ -229,6 +230,11 @@ def run_build(root: Path, k: str, compile_into=None) -> int:
                           f"{'failed' if (root / k / FAILED).exists() else 'built'} by pid {os.getpid()}\n")
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
+            if saved[0] is None:  # as it was (run_build may run inside another process: the tests)
+                os.environ.pop("TMPDIR", None)
+            else:
+                os.environ["TMPDIR"] = saved[0]
+            tempfile.tempdir = saved[1]
     return 0
 
 
