@@ -226,13 +226,58 @@ def case_scene(case: str) -> Path:
     return mesh1m_scene(ROOT / ".bench-cache") if rel == "<generated>" else (ROOT / rel).resolve()
 
 
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``, else :func:`platform.processor`), e.g. ``"AMD EPYC"``."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.startswith(("model name", "Model", "Hardware")) and ":" in line:
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown CPU"
+
+
+def simd() -> str:
+    """The widest x86 vector extension the CPU reports (``AVX-512``, ``AVX2``, ``AVX``, ``SSE4.2``), or ``""``:
+    what vectorising renderers (Mitsuba's ``llvm_ad_rgb``) pack their lanes with."""
+    try:
+        flags = set()
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    flags = set(line.split(":", 1)[1].split())
+                    break
+    except OSError:
+        return ""
+    for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2")):
+        if flag in flags:
+            return name
+    return ""
+
+
+def machine_line() -> str:
+    """One line for every figure: CPU model, cores, SIMD, date and load (``uptime``'s 1-minute average)."""
+    try:
+        load = f", load average {os.getloadavg()[0]:.1f}"
+    except OSError:
+        load = ""
+    vec = f", {simd()}" if simd() else ""
+    return (f"machine: {cpu_model()}, {os.cpu_count()} cores{vec}; {time.strftime('%Y-%m-%d %H:%M %Z')}{load}")
+
+
 def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: Path | None,
               say=print, plugins: list[str] | None = None) -> list[dict]:
     """Run the named cases (each in a subprocess) and return (and optionally write) the JSON records.
 
     A case may also be the path of a user's scene (``.xml``; its own integrator), with ``plugins`` (``--plugin``
-    specs, resolved to absolute paths) loaded in every process that renders it.
+    specs, resolved to absolute paths) loaded in every process that renders it. The first line says the
+    machine (:func:`machine_line`), which the JSON records too.
     """
+    say(machine_line())
+    from brdflab.kernels import ensure_built
+
+    ensure_built()  # every case's process then loads the compiled kernels (none runs during their first build)
     records = []
     plugins = [str(Path(p).resolve()) if Path(p).exists() else p for p in plugins or []]
     for case in cases:
@@ -270,8 +315,8 @@ def run_suite(cases: list[str], spp: int, runs: int, workers: int | None, out: P
                 f"(OBJ {fx['obj']:.2f}, BVH {fx['bvh']:.2f}), write EXR {fx['write_exr']:.2f} ∥ PNG "
                 f"{fx['write_png']:.2f} s")
     if out is not None:
-        doc = {"date": time.strftime("%Y-%m-%d %H:%M"), "machine": {"cpus": os.cpu_count(),
-               "platform": platform.platform(), "python": platform.python_version()},
+        doc = {"date": time.strftime("%Y-%m-%d %H:%M"), "machine": {"cpu": cpu_model(), "cpus": os.cpu_count(),
+               "simd": simd(), "platform": platform.platform(), "python": platform.python_version()},
                "spp": spp, "runs": runs, "results": records}
         from brdflab.outputs import json_text, write_text
 

@@ -290,7 +290,7 @@ def render(
                 on_pass(done_spp, stats.seconds, film)
             nxt = size_of(p + 1)
             over_time = (time_limit is not None and nxt
-                         and stats.seconds + stats.seconds / done_spp * nxt > time_limit)
+                         and stats.seconds + _seconds_per_spp(stats.checkpoints) * nxt > time_limit)
             if (stop is not None and stop.is_set()) or over_time:
                 halt.set()
                 ended = True
@@ -305,6 +305,14 @@ def render(
     image = film.image()
     executor.finish(image, stats)
     return image, stats
+
+
+def _seconds_per_spp(checkpoints: list[tuple[int, float]]) -> float:
+    """Seconds per sample per pixel at the rate of the passes after the first (the first holds one-off costs:
+    workers starting, caches warming), from (spp, seconds) at each pass boundary; the first pass's own rate
+    while it is the only one."""
+    (s0, t0), (s1, t1) = checkpoints[0], checkpoints[-1]
+    return (t1 - t0) / (s1 - s0) if s1 > s0 else t0 / max(s0, 1)
 
 
 def _cluster_executor(cluster):

@@ -31,7 +31,7 @@ import warnings
 from brdflab import __version__
 from brdflab.cli.signals import exit_status, ignore_while_exiting, install_default_handlers
 from brdflab.errors import EXIT_USAGE, MESSAGE_CHARS, BrdflabError, Interrupted, clean
-from brdflab.kernels import ENGINES, engine, set_engine
+from brdflab.kernels import ENGINES, asked, set_engine
 
 EXIT_BROKEN_PIPE = 141
 #: Exit statuses of the command.
@@ -115,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if getattr(args, "engine", None):  # process-wide (forked workers and Dask tasks inherit it)
             set_engine(args.engine)
-        engine()  # a bad BRDFLAB_ENGINE is a usage error before any work starts
+        asked()  # a bad BRDFLAB_ENGINE is a usage error before any work starts
         if getattr(args, "effort", None):  # process-wide for this command (forked workers inherit it)
             from brdflab.effort import use
 

@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     """Load, render and write the images."""
     from brdflab.cluster import ClusterError
     from brdflab.imageio import write_images
+    from brdflab.kernels import preload
     from brdflab.outputs import check_outputs, output_folder, prepare_files
     from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
@@ -102,6 +103,10 @@ def run(args: argparse.Namespace) -> int:
               f"(loaded in {load_s:.2f} s)", file=sys.stderr)
 
     failure = per_worker = None
+    if args.cluster is None:
+        # The engine is decided (and a first build waited for, when --engine numba asks for it) before the
+        # render's graceful handling of signals: a Ctrl-C during that wait stops the build at once.
+        preload()
     with GracefulStop() as graceful:
         progress = Progress("rendering", spp * cam.width * cam.height, spp, args.time_limit, quiet=args.quiet)
         try:

@@ -9,6 +9,16 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared" / "scenes"
 
+
+def pytest_sessionstart(session) -> None:
+    """Build the compiled kernels first, once (a fresh clone's first run; then they load in milliseconds):
+    the tests that compare the engines need them, and with them every test process and subprocess runs
+    the same engine from its first test on (without, a run's processes would switch from the NumPy engine
+    to the compiled one when the background build ends)."""
+    from brdflab.kernels import ensure_built
+
+    ensure_built()
+
 QUAD_OBJ = """v -1 0 -1
 v 1 0 -1
 v 1 0 1

@@ -3,8 +3,9 @@
 The prebuilt extension module and numba's JIT compile the same kernels with the same options; a process of
 each computes every kernel on the same inputs (materials with textures and families, both light kinds,
 the film splat, a whole render unit) and the results must be equal bit for bit. A process with the prebuilt
-module must not import numba; a failed build must be remembered and fall back to the JIT; a prebuilt
-kernel given the wrong array must raise, not read or write out of bounds.
+module must not import numba; a failed build must be remembered and fall back (the NumPy engine, or the JIT when
+the compiled engine is asked for); a prebuilt kernel given the wrong array must raise, not read or write out
+of bounds. The cache's safety and the first run after an install: ``tests/test_kernel_cache.py``.
 """
 
 from __future__ import annotations
@@ -71,44 +72,34 @@ def test_prebuilt_module_and_jit_give_the_same_bits(tmp_path):
     assert np.abs(a["scenes/veach/veach_mis.xml"]).sum() > 0
 
 
-def test_a_fresh_cache_builds_once_then_loads(tmp_path):
-    """An empty cache folder: the first process builds the module (in a child process: compile time > 0,
-    no numba in the process itself), the second loads it without building."""
-    code = ("import sys; from brdflab import kernels, RoughConductor; import numpy as np; "
-            "RoughConductor().eval(np.array([[0, 0, 1.0]]), np.array([[0, 0.6, 0.8]])); "
-            "print(kernels.backend(), 'numba' in sys.modules, kernels.costs()['compile'] > 0)")
-    first = _run(code, BRDFLAB_KERNEL_CACHE=str(tmp_path))
-    second = _run(code, BRDFLAB_KERNEL_CACHE=str(tmp_path))
-    assert first.stdout.split() == ["aot", "False", "True"], first.stderr[-2000:]
-    assert second.stdout.split() == ["aot", "False", "False"], second.stderr[-2000:]
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key()]  # no temporary folder
+def test_a_failed_build_is_remembered_and_falls_back(tmp_path):
+    """A build that fails (here: a compiler that raises, as without a C compiler) leaves its error in the
+    cache; the next process says so once and runs the NumPy engine, one that asks for the compiled engine
+    runs the JIT, with the same results (1e-12); a build cut short by a signal is not remembered."""
+    def no_cc(folder):
+        raise RuntimeError("no cc")
 
+    assert aot.run_build(tmp_path, aot.key(), no_cc) == 0
+    assert aot.summary((tmp_path / aot.key() / aot.FAILED).read_text()) == "RuntimeError: no cc"
 
-def test_a_failed_build_is_remembered_and_falls_back_to_the_jit(tmp_path, monkeypatch):
-    """A build that fails (here: a child that exits 1, as without a C compiler) leaves its error in the
-    cache; this and later processes run the JIT, with the same results."""
-    with monkeypatch.context() as m:
-        m.setenv("BRDFLAB_KERNEL_CACHE", str(tmp_path))
-        m.setattr(aot.subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(a, 1, "", "no cc"))
-        path, error = aot.build("k1")
-        assert path is None and "no cc" in error
-        assert aot.find("k1") == (None, "no cc")
-        # A build cut short by a signal (or a timeout) is not a broken one: nothing is remembered.
-        m.setattr(aot.subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(a, -2, "", "KeyboardInterrupt"))
-        assert aot.build("k2") == (None, "the build was stopped by signal 2") and aot.find("k2") == (None, None)
-        assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", "k1"]
-    (tmp_path / aot.key()).mkdir()
-    (tmp_path / aot.key() / aot.FAILED).write_text("no cc")
+    def interrupted(folder):
+        raise aot._Stopped(2)
+
+    with pytest.raises(aot._Stopped):
+        aot.run_build(tmp_path, "k2", interrupted)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key(), "builds.log"]  # nothing of k2
     code = ("import sys; from brdflab import kernels, RoughConductor; import numpy as np; "
             "print(RoughConductor(alpha=0.3).eval(np.array([[0, 0, 1.0]]), np.array([[0, 0.6, 0.8]]))[0, 0]); "
-            "print(kernels.backend(), kernels.aot_error)")
-    p = _run(code)
+            "print(kernels.engine(), kernels.backend() or '-')")
+    env = {"BRDFLAB_KERNEL_CACHE": str(tmp_path), "BRDFLAB_ENGINE": ""}
     ref = _run(code, BRDFLAB_ENGINE="numpy")
-    p2 = _run(code, BRDFLAB_KERNEL_CACHE=str(tmp_path))
-    assert p2.returncode == 0, p2.stderr[-2000:]
-    assert p2.stdout.splitlines()[1] == "jit no cc"
-    assert float(p2.stdout.splitlines()[0]) == pytest.approx(float(ref.stdout.splitlines()[0]), rel=1e-12)
-    assert p.stdout.splitlines()[1].startswith("aot")
+    auto = [_run(code, **env) for _ in range(2)]
+    strict = _run(code, **{**env, "BRDFLAB_ENGINE": "numba"})
+    assert all(p.returncode == 0 for p in (ref, *auto, strict)), strict.stderr[-2000:]
+    assert [p.stdout.splitlines()[1] for p in auto] == ["numpy -", "numpy -"]
+    assert "could not be prebuilt (RuntimeError: no cc)" in auto[0].stderr and auto[1].stderr == "", auto[1].stderr
+    assert strict.stdout.splitlines()[1] == "numba jit"
+    assert float(strict.stdout.splitlines()[0]) == pytest.approx(float(ref.stdout.splitlines()[0]), rel=1e-12)
 
 
 def test_prebuilt_kernels_refuse_wrong_arrays():
@@ -132,34 +123,21 @@ def test_prebuilt_kernels_refuse_wrong_arrays():
         film_mod.splat(*args[:10])
 
 
-def test_a_build_without_a_c_compiler_warns_once_and_renders_with_the_jit(tmp_path):
-    """A real failure (the C compiler is missing): one warning line naming the error, no traceback, the
-    render done through the JIT; the next process remembers the failure and says nothing."""
+def test_a_build_without_a_c_compiler_warns_once(tmp_path):
+    """A real failure (the C compiler is missing): the first run renders on the NumPy engine while the build
+    fails in the background; the next says so in one warning line naming the error, no traceback; the one
+    after says nothing."""
     cmd = [sys.executable, "-m", "brdflab.cli.main", "render", "scenes/cbox/cbox_diffuse.xml", "--spp", "1",
-           "--workers", "1", "-o", str(tmp_path / "out" / "x.exr")]
-    env = {**os.environ, "BRDFLAB_ENGINE": "numba", "BRDFLAB_KERNEL_CACHE": str(tmp_path / "cache"),
-           "CC": str(tmp_path / "no-such-cc")}
-    runs = [subprocess.run(cmd + ["--force"] * i, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
-            for i in range(2)]
-    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr[-2000:]
-    warned = [ln for ln in runs[0].stderr.splitlines() if "could not be prebuilt" in ln]
-    assert len(warned) == 1 and warned[0].startswith("brdflab: warning:") and "Error" in warned[0], runs[0].stderr
-    assert "Traceback" not in runs[0].stderr and "could not be prebuilt" not in runs[1].stderr
+           "--workers", "1", "--force", "-o", str(tmp_path / "out" / "x.exr")]
+    env = {**os.environ, "BRDFLAB_KERNEL_CACHE": str(tmp_path / "cache"), "CC": str(tmp_path / "no-such-cc")}
+    env.pop("BRDFLAB_ENGINE", None)
+    runs = []
+    for _ in range(3):
+        runs.append(subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600))
+        aot.wait_for_build(tmp_path / "cache")
+    assert [r.returncode for r in runs] == [0, 0, 0], runs[0].stderr[-2000:]
+    assert "building them in the background" in runs[0].stderr
+    warned = [ln for ln in runs[1].stderr.splitlines() if "could not be prebuilt" in ln]
+    assert len(warned) == 1 and warned[0].startswith("brdflab: warning:") and "Error" in warned[0], runs[1].stderr
+    assert all("Traceback" not in r.stderr for r in runs) and "warning" not in runs[2].stderr
     assert (tmp_path / "out" / "x.exr").is_file()
-
-
-def test_processes_starting_together_build_once(tmp_path):
-    """Two processes on an empty cache at once: one builds while the other waits for it (a lock), both load
-    the module, and no temporary folder is left."""
-    # Each process says whether it ran the build's child itself ("built") or found the module ("found").
-    code = ("import sys, subprocess; from brdflab import kernels; real = subprocess.run; ran = []\n"
-            "def spy(*a, **k):\n    ran.append(1)\n    return real(*a, **k)\n"
-            "kernels.aot.subprocess.run = spy; kernels.preload(); "
-            "print(kernels.backend(), 'numba' in sys.modules, 'built' if ran else 'found')")
-    env = {**os.environ, "BRDFLAB_ENGINE": "numba", "BRDFLAB_KERNEL_CACHE": str(tmp_path)}
-    procs = [subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
-    outs = [p.communicate(timeout=600) for p in procs]
-    assert sorted(o[0].split()[-1] for o in outs) == ["built", "found"], outs
-    assert [o[0].split()[:2] for o in outs] == [["aot", "False"]] * 2, outs
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key()]

@@ -14,10 +14,15 @@ same formulas in the same order; only the transcendental functions (``exp``, ``l
 may round differently in the last bit.
 
 The kernels are loaded lazily, when one first runs, so that start-up (``brdflab --help``, loading a
-scene) does not pay for them. The first process after an install or an edit builds them ahead of time
-into an extension module (:mod:`brdflab.kernels.aot`, a few seconds); every later process imports that
-module in milliseconds, without numba. Where that build cannot be had, numba's JIT compiles them, cached on
-disk (:mod:`brdflab.kernels.jit`).
+scene) does not pay for them. They are built ahead of time into an extension module
+(:mod:`brdflab.kernels.aot`), which later processes import in milliseconds, without numba. **No run waits
+for that build** (15–60 s of one core): when no engine is asked for and the module is not built yet, the
+process says so in one line (``compiled kernels not built yet: this run uses the NumPy engine; building them
+in the background``), starts the build detached and runs on the NumPy engine; the next process picks up the
+module. Forked render workers inherit their parent's decision and a cluster's workers are told the
+client's, so that one render uses one engine. Asking for ``numba`` by name waits for the build (or uses
+numba's JIT where it cannot be had, as ``BRDFLAB_AOT=0`` does). A damaged, foreign or unbuildable cache
+costs one warning line and the NumPy engine (:mod:`brdflab.kernels.cache`).
 
 Examples
 --------
@@ -40,7 +45,7 @@ from collections.abc import Iterator
 from types import ModuleType
 
 from brdflab.errors import BrdflabError, clean
-from brdflab.kernels import aot, jit
+from brdflab.kernels import aot, cache, jit
 
 #: The engines, by the name ``BRDFLAB_ENGINE`` and ``--engine`` take.
 ENGINES = ("numba", "numpy")
@@ -48,23 +53,44 @@ _ENV = "BRDFLAB_ENGINE"
 _numba_ok: bool | None = None
 
 
-def engine() -> str:
-    """The engine in force: ``"numba"`` (the default; ``"numpy"`` when numba is not installed) or ``"numpy"``.
+def asked() -> str:
+    """The engine asked for: ``"numba"``, ``"numpy"`` (``BRDFLAB_ENGINE``, ``--engine``) or ``""`` (none).
 
     Raises
     ------
     BrdflabError
         When ``BRDFLAB_ENGINE`` holds something else.
     """
-    asked = os.environ.get(_ENV, "").strip().lower()
-    name = asked or "numba"
-    if name not in ENGINES:
+    name = os.environ.get(_ENV, "").strip().lower()
+    if name and name not in ENGINES:
         raise BrdflabError(f"BRDFLAB_ENGINE must be one of {', '.join(ENGINES)}, not {clean(name, 40)}")
-    if name == "numba" and not _numba_available():
-        if asked:  # asked for by name: say why it cannot be had; by default, fall back quietly
-            raise BrdflabError("the numba engine needs the numba package (pip install numba), or use --engine numpy")
-        return "numpy"
     return name
+
+
+def engine() -> str:
+    """The engine in force: ``"numba"`` (the compiled kernels) or ``"numpy"``.
+
+    Asked for by name (``BRDFLAB_ENGINE``), it is that engine; ``numba`` then waits for a first build if
+    needed (numba's JIT if it cannot be had). Not asked for, the process decides once: the compiled
+    kernels when the prebuilt module is there, else the NumPy engine while the module is built in the
+    background (see the module docstring). A compiled engine that cannot load costs one warning line and
+    the NumPy engine, never the run.
+
+    Raises
+    ------
+    BrdflabError
+        When ``BRDFLAB_ENGINE`` holds something else, or asks for ``numba`` where neither numba nor a
+        prebuilt module is installed.
+    """
+    global _auto
+    name = asked()
+    if name == "numpy" or _broken:
+        return "numpy"
+    if name == "numba":
+        return "numba" if _prepare(strict=True) else "numpy"
+    if _auto is None:
+        _auto = "numba" if _prepare(strict=False) else "numpy"
+    return _auto
 
 
 def set_engine(name: str) -> None:
@@ -100,65 +126,125 @@ def _numba_available() -> bool:
     return _numba_ok
 
 
+class KernelNotice(UserWarning):
+    """What became of the compiled engine in this process, when it is not the prebuilt kernels (one line)."""
+
+
 #: Seconds this process spent loading the kernels (the prebuilt module, or numba and its cached machine
-#: code) and building them (the ahead-of-time build, or JIT compiles: ``numba:compile`` events, outermost
+#: code) and building them (waiting for a build, or JIT compiles: ``numba:compile`` events, outermost
 #: only); see :func:`costs`.
 _COSTS = {"import": 0.0, "compile": 0.0}
 _timer_installed = False
-_chosen = False
-#: Why this process runs the JIT instead of the prebuilt module (None: it does not, or has not chosen).
+#: The kernel modules are imported (a backend was chosen and works).
+_ready = False
+#: The compiled engine failed in this process (numba's import, the module's init…): NumPy from now on.
+_broken = False
+#: This process's engine when none is asked for, once decided.
+_auto: str | None = None
+#: Why this process does not run the prebuilt module (None: it does, or has not decided).
 aot_error: str | None = None
 
 
 def backend() -> str:
-    """``"aot"`` (the prebuilt extension module) or ``"jit"`` (numba), once a kernel module is loaded;
-    ``""`` before."""
-    return jit.BACKEND.mode if _chosen else ""
+    """``"aot"`` (the prebuilt extension module) or ``"jit"`` (numba), once the kernels are loaded; ``""``
+    before (and with the NumPy engine)."""
+    return jit.BACKEND.mode if _ready else ""
 
 
-def _choose_backend() -> None:
-    """Before the first kernel module is imported: the prebuilt module when there is one for this key
-    (building it first if needed), else the JIT (:mod:`brdflab.kernels.aot`)."""
-    global _chosen, aot_error
-    if _chosen:
-        return
-    _chosen = True
+def _say(text: str) -> None:
+    warnings.warn(clean(text, 400), KernelNotice, stacklevel=4)
+
+
+def _prepare(strict: bool) -> bool:
+    """Load the compiled kernels if they can be had now; False: this process uses the NumPy engine.
+
+    ``strict`` (the compiled engine was asked for): wait for a build, else use numba's JIT. Otherwise:
+    the prebuilt module if it is there and verified; if not, start its build in the background."""
+    global aot_error
+    if _ready or _broken:
+        return _ready
     if not aot.enabled():
-        return
+        return _import_kernels("jit", None, strict)
     t0 = time.perf_counter()
-    path, error = aot.find()
-    if path is None and error is None:
-        path, error = aot.build()
+    entry = aot.lookup()
+    if entry.state == "built":
+        return _import_kernels("aot", entry.path, strict)
+    if entry.state in ("missing", "damaged") and not strict:
+        aot_error = entry.message or "not built yet"
+        if not _numba_available():  # nothing could build it: the NumPy engine, quietly
+            return False
+        started, why = aot.build_in_background()
+        damaged = entry.state == "damaged"
+        head = f"the compiled kernels in the cache are not usable ({entry.message})" if damaged \
+            else "compiled kernels not built yet"
+        tail = why or (f"{'re' if damaged else ''}building them in the background" if started
+                       else "another process is building them")
+        _say(f"{head}: this run uses the NumPy engine; {tail}")
+        return False
+    if not _numba_available():  # asked for by name: say why it cannot be had
+        raise BrdflabError("the numba engine needs the numba package (pip install numba), or use --engine numpy")
+    if entry.state in ("missing", "damaged"):  # strict: wait for the build
+        entry = aot.build()
         _COSTS["compile"] += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        if path is None:  # said once, when the build fails; later processes use the JIT quietly
-            warnings.warn(f"the compiled kernels could not be prebuilt ({clean(aot.summary(error or ''), 160)}); "
-                          f"numba's JIT compiles them instead (about 0.5 s per process)", stacklevel=3)
-    if path is not None:
-        try:
+        if entry.state == "built":
+            return _import_kernels("aot", entry.path, strict)
+    aot_error = entry.message
+    fallback = "numba's JIT compiles them instead" if strict else "this run uses the NumPy engine"
+    if entry.state == "refused":
+        _say(f"{entry.message}; {fallback}")
+    elif not entry.reported:
+        where = f" (delete {entry.root / aot.key()} to try again)" if entry.root is not None else ""
+        _say(f"the compiled kernels could not be prebuilt ({aot.summary(entry.message)}){where}; {fallback}")
+        if entry.root is not None:
+            with contextlib.suppress(OSError):
+                (entry.root / aot.key() / cache.REPORTED).touch()
+    return _import_kernels("jit", None, strict) if strict else False
+
+
+def _import_kernels(mode: str, path, strict: bool) -> bool:
+    """Import every kernel module with the ``"aot"`` module at ``path`` or the ``"jit"``; on any failure
+    (the module's init raising, kernels missing from it, numba failing at import) one warning line, and
+    the JIT instead of a failed prebuilt module when ``strict``, else the NumPy engine."""
+    global _ready, _broken, aot_error
+    t0, c0 = time.perf_counter(), _COSTS["compile"]
+    try:
+        if mode == "aot":
             jit.BACKEND.ext = aot.load_module(path)
             jit.BACKEND.mode = "aot"
-        except (ImportError, OSError) as e:  # a damaged or foreign build: the JIT, as without one
-            path, error = None, f"{path}: {type(e).__name__}: {e}"
-    if path is None:
-        aot_error = error
-        return
-    _COSTS["import"] += time.perf_counter() - t0
+        else:
+            jit.BACKEND.mode = "jit"
+            _install_compile_timer()
+        for name in MODULES:
+            importlib.import_module(f"brdflab.kernels.{name}")
+    except (Exception, SystemExit) as e:
+        for name in MODULES:  # nothing half-imported stays
+            sys.modules.pop(f"brdflab.kernels.{name}", None)
+        jit.BACKEND.mode, jit.BACKEND.ext = "jit", None
+        what = f"the prebuilt kernel module {path}" if mode == "aot" else "numba's JIT"
+        aot_error = f"{what} could not be loaded ({type(e).__name__}: {e})"
+        if mode == "aot" and strict and _numba_available():
+            _say(f"{aot_error}; numba's JIT compiles the kernels instead")
+            return _import_kernels("jit", None, strict)
+        _say(f"{aot_error}; this run uses the NumPy engine")
+        _broken = True
+        return False
+    _ready = True
+    _COSTS["import"] += time.perf_counter() - t0 - (_COSTS["compile"] - c0)
+    return True
 
 
 def load(name: str) -> ModuleType:
-    """The kernel module ``brdflab.kernels.<name>`` (on first use: loads the prebuilt kernels, building
-    them once if needed, or imports numba and compiles the module's kernels or loads them from numba's
-    disk cache)."""
-    mod = sys.modules.get(f"brdflab.kernels.{name}")
-    if mod is None:
-        _choose_backend()
-        t0, c0 = time.perf_counter(), _COSTS["compile"]
-        if jit.BACKEND.mode == "jit":
-            _install_compile_timer()
-        mod = importlib.import_module(f"brdflab.kernels.{name}")
-        _COSTS["import"] += time.perf_counter() - t0 - (_COSTS["compile"] - c0)
-    return mod
+    """The kernel module ``brdflab.kernels.<name>`` (on first use: loads the kernels as the compiled engine
+    would, waiting for a first build if needed).
+
+    Raises
+    ------
+    BrdflabError
+        When the compiled kernels cannot be loaded in this process.
+    """
+    if not _ready and not _prepare(strict=True):
+        raise BrdflabError(f"the compiled kernels are not available ({clean(aot_error or '', 200)})")
+    return sys.modules[f"brdflab.kernels.{name}"]
 
 
 def _install_compile_timer() -> None:
@@ -206,12 +292,20 @@ def for_object(obj: object, kind: str) -> ModuleType | None:
 MODULES = ("bsdf", "direct", "emitter", "film", "shading")
 
 
+def ensure_built() -> bool:
+    """Wait for the prebuilt kernels (building them now if needed), unless the NumPy engine is asked for or
+    numba is missing: for runs whose every process must use the compiled engine from the start (the test
+    suite's first step, ``brdflab bench``). True when the compiled kernels are loaded in this process."""
+    if asked() == "numpy" or not _numba_available():
+        return False
+    with use_engine("numba"):
+        return compiled()
+
+
 def preload() -> None:
-    """Import numba and the kernel modules now (in a process about to fork workers, which then share them
-    instead of each importing numba); nothing with the NumPy engine."""
-    if compiled():
-        for name in MODULES:
-            load(name)
+    """Decide the engine and load the kernels now (in a process about to fork workers, which then share
+    them and the decision); nothing with the NumPy engine."""
+    engine()
 
 
 def twin(kind: str, name: str):
@@ -236,5 +330,5 @@ def twin(kind: str, name: str):
     return wrap
 
 
-__all__ = ["ENGINES", "engine", "set_engine", "use_engine", "compiled", "load", "for_object", "twin",
-           "preload", "MODULES", "costs", "backend"]
+__all__ = ["ENGINES", "asked", "engine", "KernelNotice", "set_engine", "use_engine", "compiled", "load",
+           "for_object", "twin", "preload", "ensure_built", "MODULES", "costs", "backend"]

@@ -9,16 +9,24 @@ its compile options — NumPy's error model, no fast-math — hold), and every l
 module in a few milliseconds.
 
 * **Where**: ``$BRDFLAB_KERNEL_CACHE`` if set, else ``brdflab/kernels/__pycache__/aot`` when writable,
-  else ``~/.cache/brdflab/kernels`` (``$XDG_CACHE_HOME``). One folder per :func:`key`.
+  else ``~/.cache/brdflab/kernels`` (``$XDG_CACHE_HOME``). One folder per :func:`key`; what is trusted
+  there (owner, permissions, the module's hash in a manifest, checked before it is loaded) is
+  :mod:`brdflab.kernels.cache`.
 * **Key**: the sources in ``brdflab/kernels/``, the installed numba, llvmlite and NumPy, the Python, and the CPU
   (the code is compiled for the host CPU, as the JIT's is): an edit, an upgrade or another machine of a
   cluster on a shared disk builds its own.
-* **Build**: in a child process (``python -m brdflab.kernels.aot DIR``, a few seconds, counted as build
-  time), into a temporary folder renamed into place, so that no process ever sees half a module; processes
-  starting together (a pool, a cluster's workers) wait on a lock for the first one's build.
-* **Fallback**: when the build fails (no C compiler, no ``numba.pycc``), the process says so in one warning
-  line, leaves the error in the folder (``build-failed.txt``; delete it to try again) and it and later
-  processes use the JIT (numba's disk cache) instead. ``BRDFLAB_AOT=0`` asks for the JIT.
+* **Build**: by a builder process (``python -m brdflab.kernels.aot build ROOT KEY …``, 15–60 s of one
+  core), into a temporary folder renamed into place, so that no process ever sees half a module; builders
+  starting together wait on a lock and the second finds the module built. When no engine was asked for,
+  the process that finds no module starts the builder **in the background** (detached, at a low
+  priority) and runs on the NumPy engine; the next process loads the module (:mod:`brdflab.kernels`).
+  A process that asked for the compiled engine (``--engine numba``, a cluster's worker told so by its
+  client) waits for the builder; a signal while it waits stops the builder at once.
+* **Fallback**: when the build fails (no C compiler, numba broken, a full disk), the error is kept in the
+  folder (``build-failed.txt``; delete it to try again), the next process says so in one warning line and
+  processes run on the NumPy engine (numba's JIT when the compiled engine was asked for).
+  ``BRDFLAB_AOT=0`` asks for the JIT; ``BRDFLAB_AOT_BUILD=0`` starts no background build (a cache built
+  beforehand, e.g. by ``brdflab --engine numba`` or the test suite's first step).
 
 Both backends compile the same functions with the same options; ``tests/test_kernels_aot.py`` checks that
 they agree bit for bit (``tests/test_kernels.py``: each against the NumPy code to 1e-12).
@@ -27,24 +35,24 @@ they agree bit for bit (``tests/test_kernels.py``: each against the NumPy code t
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
-import importlib.machinery
 import importlib.util
 import os
 import platform
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+import traceback
 from pathlib import Path
 from types import ModuleType
 
-HERE = Path(__file__).resolve().parent
-NAME = "brdflab_kernels"
-FAILED = "build-failed.txt"
+from brdflab.kernels import cache
+from brdflab.kernels.cache import FAILED, HERE, NAME
 
 
 def enabled() -> bool:
@@ -77,137 +85,166 @@ def key() -> str:
     return h.hexdigest()[:20]
 
 
-def roots() -> list[Path]:
-    """Cache folders, in the order they are tried."""
-    env = os.environ.get("BRDFLAB_KERNEL_CACHE")
-    if env:
-        return [Path(env)]
-    user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "brdflab" / "kernels"
-    return [HERE / "__pycache__" / "aot", user]
-
-
-def _module_file(folder: Path) -> Path | None:
-    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
-        p = folder / f"{NAME}{suffix}"
-        if p.is_file():
-            return p
-    return None
-
-
-def find(k: str | None = None) -> tuple[Path | None, str | None]:
-    """(the built module for this key, or None; the recorded build error, or None)."""
-    k = k or key()
-    for root in roots():
-        folder = root / k
-        p = _module_file(folder)
-        if p is not None:
-            return p, None
-        try:
-            return None, (folder / FAILED).read_text(errors="replace")[-2000:]
-        except OSError:  # no marker (or one this user cannot read): the next root
-            continue
-    return None, None
+def lookup(k: str | None = None) -> cache.Entry:
+    """What the cache holds for this key (:func:`brdflab.kernels.cache.lookup`)."""
+    return cache.lookup(k or key())
 
 
 def load_module(path: Path) -> ModuleType:
-    """Import the built extension module at ``path``."""
+    """Import the built extension module at ``path`` (verified by :func:`brdflab.kernels.cache.verify`)."""
     spec = importlib.util.spec_from_file_location(NAME, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-def _writable_root() -> Path | None:
-    for root in roots():
-        try:
-            root.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile(dir=root):
-                return root
-        except OSError:
-            continue
-    return None
-
-
 def _child_env() -> dict[str, str]:
-    """The build child's environment: brdflab importable from where this process found it."""
+    """The builder's environment: brdflab importable from where this process found it, numba's JIT."""
     path = [str(HERE.parent.parent)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     return {**os.environ, "PYTHONPATH": os.pathsep.join(path), "BRDFLAB_AOT": "0"}
 
 
-def build(k: str | None = None, timeout: float = 600.0) -> tuple[Path | None, str | None]:
-    """Build the module for this key in a child process; (its path, None) or (None, the error). Processes
-    that start at once (a pool, a cluster's workers) wait for the first one's build instead of repeating it."""
-    k = k or key()
-    root = _writable_root()
+#: Builders started in the background by this process (kept so that they are not reported as leaked).
+_DETACHED: list[subprocess.Popen] = []
+
+
+def start(root: Path, k: str, background: bool) -> subprocess.Popen:
+    """Start the builder ``python -m brdflab.kernels.aot build ROOT KEY`` in a session of its own (a
+    terminal's Ctrl-C does not reach it or its C compiler). ``background``: detached and at a low priority,
+    it outlives this process (the next process picks up the module); otherwise it dies with this process."""
+    cmd = [sys.executable, "-m", "brdflab.kernels.aot", "build", str(root), k,
+           "background" if background else str(os.getpid())]
+    proc = subprocess.Popen(cmd, env=_child_env(), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True)
+    if background:
+        _DETACHED.append(proc)
+    return proc
+
+
+def build_in_background(k: str | None = None) -> tuple[bool, str]:
+    """Start a detached build unless one is running: (True, "") when one was started, (False, "") when
+    another process is building, (False, why) when there is no safe folder to build in or
+    ``BRDFLAB_AOT_BUILD=0`` (a pre-built or read-only cache) forbids starting one."""
+    if os.environ.get("BRDFLAB_AOT_BUILD", "1").strip() == "0":
+        return False, "BRDFLAB_AOT_BUILD=0: no build is started"
+    root, why = cache.writable_root()
     if root is None:
-        return None, "no writable cache folder"
-    with _locked(root / ".build.lock"):
-        path, error = find(k)
-        if path is not None or error is not None:  # built (or failed) while this process waited
-            return path, error
-        _remove_stale(root)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{k}-", dir=root))
-        try:
-            try:
-                p = subprocess.run([sys.executable, "-m", "brdflab.kernels.aot", str(tmp)], capture_output=True,
-                                   text=True, timeout=timeout, env=_child_env(), preexec_fn=_child_setup(),
-                                   start_new_session=True)  # a terminal's Ctrl-C reaches neither it nor its C compiler
-                ok = p.returncode == 0 and _module_file(tmp) is not None
-                error = None if ok else (p.stderr or p.stdout or f"exit status {p.returncode}")[-2000:]
-                if p.returncode < 0:  # killed by a signal: not a broken build, the next process retries
-                    return None, f"the build was stopped by signal {-p.returncode}"
-            except subprocess.TimeoutExpired:  # a slow machine, not a broken build: the next process retries
-                return None, f"the build took more than {timeout:.0f} s"
-            except OSError as e:
-                ok, error = False, f"{type(e).__name__}: {e}"
-            if not ok:
-                (tmp / FAILED).write_text(error or "unknown error")
-            tmp.chmod(0o755)  # mkdtemp's 0700 would hide the build from other users of a shared cache
-            try:
-                tmp.rename(root / k)  # atomic
-            except OSError:
-                pass
-        finally:  # whatever happens (a signal included), no temporary folder is left behind
-            shutil.rmtree(tmp, ignore_errors=True)
-    path, recorded = find(k)
-    return path, (None if path is not None else (error or recorded))
+        return False, why
+    with cache.locked(root, wait=False) as free:
+        if not free:
+            return False, ""
+    start(root, k or key(), background=True)
+    return True, ""
 
 
-def _child_setup():
-    """For the build's child (POSIX): die with the parent (``PR_SET_PDEATHSIG``). It runs in a session of
-    its own, so a terminal's signals reach only the parent, which stops the run its own way."""
-    if os.name != "posix":
-        return None
-    from brdflab.processes import die_with_parent
-
-    return die_with_parent
-
-
-def _remove_stale(root: Path, age: float = 3600.0) -> None:
-    """Remove temporary build folders older than ``age`` seconds (left by a process killed mid-build)."""
-    now = time.time()
-    for p in root.glob(".*-*"):
-        try:
-            if p.is_dir() and now - p.stat().st_mtime > age:
-                shutil.rmtree(p, ignore_errors=True)
-        except OSError:
-            continue
-
-
-@contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
-    """An exclusive lock on ``path`` (``flock``; none where the platform has no ``fcntl``)."""
+def build(k: str | None = None, timeout: float = 900.0) -> cache.Entry:
+    """Build the module for this key and wait for it (a builder child process; processes that start at once
+    — a pool, a cluster's workers — wait on the lock for the first one's build instead of repeating it).
+    A signal (KeyboardInterrupt, :class:`brdflab.errors.Interrupted`) while waiting stops the builder at once
+    and is raised; nothing of the stopped build is left."""
+    k = k or key()
+    root, why = cache.writable_root()
+    if root is None:
+        return cache.Entry("failed", message=why)
+    proc = start(root, k, background=False)
+    deadline = time.monotonic() + timeout
     try:
-        import fcntl
-    except ImportError:
-        yield
-        return
-    with open(path, "a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
+        while proc.poll() is None:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"the build took more than {timeout:.0f} s")
+            time.sleep(0.05)
+    except BaseException as e:
+        stop(proc, root)
+        if isinstance(e, TimeoutError):
+            return cache.Entry("failed", root, message=str(e))
+        raise
+    entry = cache.lookup(k)
+    if entry.state in ("built", "failed"):
+        return entry
+    if proc.returncode < 0:
+        return cache.Entry("failed", root, message=f"the build was stopped by signal {-proc.returncode}")
+    return cache.Entry("failed", root, message=entry.message or f"the build ended with status {proc.returncode}")
+
+
+def stop(proc: subprocess.Popen, root: Path) -> None:
+    """Stop a builder now: SIGTERM to its process group (it removes its folder), SIGKILL after 2 s; then,
+    if no other build holds the lock, remove what a killed builder left."""
+    for sig, wait in ((signal.SIGTERM, 2.0), (signal.SIGKILL, 5.0)):
+        with contextlib.suppress(OSError):
+            os.killpg(proc.pid, sig)
         try:
-            yield
+            proc.wait(wait)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    with contextlib.suppress(OSError), cache.locked(root, wait=False) as free:
+        if free:
+            cache.remove_temporaries(root)
+
+
+def wait_for_build(root: Path) -> None:
+    """Return when no build holds ``root``'s lock (tests, and tools that want the module)."""
+    with cache.locked(root):
+        pass
+
+
+class _Stopped(BaseException):
+    """A signal stopped the builder: not a broken build (nothing is recorded; the next process retries)."""
+
+
+def _stopped(signum, frame) -> None:
+    raise _Stopped(signum)
+
+
+def run_build(root: Path, k: str, compile_into=None) -> int:
+    """The builder (``python -m brdflab.kernels.aot build ROOT KEY``): under the lock, unless the key is
+    built (or failed) already, compile every kernel into ``ROOT/.tmp-KEY-*`` (the C compiler's temporaries
+    there too, not in ``$TMPDIR``), write the manifest, rename into place. A build that raises records
+    its error (``build-failed.txt``, naming the folder when the disk is full); a signal records nothing."""
+    compile_into = compile_into or _compile_into
+    with cache.locked(root):
+        entry = cache._inspect(root, k)
+        if entry.state in ("built", "failed"):
+            return 0
+        cache.remove_temporaries(root)
+        tmp = Path(tempfile.mkdtemp(prefix=f"{cache.TMP_PREFIX}{k}-", dir=root))
+        scratch = tmp / "tmp"
+        scratch.mkdir()
+        saved = os.environ.get("TMPDIR"), tempfile.tempdir
+        os.environ["TMPDIR"] = str(scratch)
+        tempfile.tempdir = None  # the compiler's temporary files go to the build folder
+        try:
+            try:
+                compile_into(str(tmp))
+                if not (tmp / cache.module_name()).is_file():
+                    raise RuntimeError("the build wrote no module")
+                shutil.rmtree(scratch)
+                cache.write_manifest(tmp, k)
+            except (Exception, SystemExit) as e:
+                for p in tmp.iterdir():  # first free the space (a full disk), then record the error
+                    shutil.rmtree(p) if p.is_dir() else p.unlink()
+                (tmp / FAILED).write_text(_failure(e, root))
+            cache.install(tmp, root / k)
+            with contextlib.suppress(OSError), open(root / cache.LOG, "a", encoding="utf-8") as log:
+                log.write(f"{time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())} {k} "
+                          f"{'failed' if (root / k / FAILED).exists() else 'built'} by pid {os.getpid()}\n")
         finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+            shutil.rmtree(tmp, ignore_errors=True)
+            if saved[0] is None:  # as it was (run_build may run inside another process: the tests)
+                os.environ.pop("TMPDIR", None)
+            else:
+                os.environ["TMPDIR"] = saved[0]
+            tempfile.tempdir = saved[1]
+    return 0
+
+
+def _failure(e: BaseException, root: Path) -> str:
+    """The text of ``build-failed.txt``: the traceback, then one line saying what went wrong."""
+    if isinstance(e, OSError) and e.errno == errno.ENOSPC:
+        line = f"OSError: no space left on device in {root} (free some space, or set BRDFLAB_KERNEL_CACHE)"
+    else:
+        line = f"{type(e).__name__}: {e}"
+    return "".join(traceback.format_exception(e)) + line + "\n"
 
 
 def summary(error: str) -> str:
@@ -242,5 +279,27 @@ def _compile_into(folder: str) -> None:
     cc.compile()
 
 
+def main(argv: list[str]) -> int:
+    """``build ROOT KEY background|PARENT_PID``: :func:`run_build`, at a low priority in the background, or
+    dying with its parent (``PR_SET_PDEATHSIG``) when a process waits for it."""
+    _, root, k, mode = argv
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGALRM):
+        signal.signal(sig, _stopped)
+    signal.alarm(1800)  # a builder that hangs holds the lock: it ends itself
+    if mode == "background":
+        with contextlib.suppress(OSError):
+            os.nice(10)  # the run that started it (and the user's other work) come first
+    else:
+        from brdflab.processes import die_with_parent
+
+        die_with_parent()
+        if os.getppid() != int(mode):  # the parent died before the prctl call
+            return 1
+    try:
+        return run_build(Path(root), k)
+    except _Stopped:
+        return 1
+
+
 if __name__ == "__main__":
-    _compile_into(sys.argv[1])
+    sys.exit(main(sys.argv[1:]))
