@@ -4,6 +4,7 @@ always shut down, and every wait is bounded."""
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 import socket
 import subprocess
@@ -58,13 +59,13 @@ def _wait(pred, timeout: float, what: str):
     pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")
 
 
-def test_explorer_slider_updates_the_plots(tmp_path):
+@contextlib.contextmanager
+def _explorer(tmp_path):
+    """A served explorer and a headless Chromium on its page (skips without them); both always shut down."""
     exe, driver_exe = _chromium(), shutil.which("chromedriver")
     if exe is None or driver_exe is None:
         pytest.skip("no chromium/chromedriver on this machine (CI installs Debian's chromium and chromium-driver)")
     webdriver = pytest.importorskip("selenium.webdriver")
-    from selenium.webdriver.common.action_chains import ActionChains
-
     port = _free_port()
     url = f"http://127.0.0.1:{port}/"
     log = open(tmp_path / "explore.log", "w")
@@ -82,8 +83,6 @@ def test_explorer_slider_updates_the_plots(tmp_path):
                 return False
 
         _wait(up, 90, "the explorer to serve")
-        html = urllib.request.urlopen(url, timeout=10).read().decode()
-        assert 'src="/static/js/bokeh' in html and "cdn" not in html.lower()  # JS served locally, no CDN
         opts = webdriver.ChromeOptions()
         for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,1000",
                   "--disable-background-networking", "--disable-component-update", f"--user-data-dir={tmp_path}/p"):
@@ -92,6 +91,27 @@ def test_explorer_slider_updates_the_plots(tmp_path):
         driver = webdriver.Chrome(options=opts, service=webdriver.ChromeService(executable_path=driver_exe))
         driver.set_page_load_timeout(90)
         driver.set_script_timeout(30)
+        driver.url_served = url
+        yield driver
+    finally:
+        if driver is not None:
+            driver.quit()
+        server.terminate()
+        try:
+            server.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait(timeout=15)
+        log.close()
+
+
+def test_explorer_slider_updates_the_plots(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    with _explorer(tmp_path) as driver:
+        url = driver.url_served
+        html = urllib.request.urlopen(url, timeout=10).read().decode()
+        assert 'src="/static/js/bokeh' in html and "cdn" not in html.lower()  # JS served locally, no CDN
         driver.get(url)
         before = _wait(lambda: "peak f" in driver.execute_script(STATUS_JS) and driver.execute_script(STATUS_JS),
                        90, "the first plots")
@@ -112,16 +132,6 @@ def test_explorer_slider_updates_the_plots(tmp_path):
         assert 0 <= theta < 45
         time.sleep(0.5)  # let the canvases repaint
         assert driver.get_screenshot_as_png() != shot_before
-    finally:
-        if driver is not None:
-            driver.quit()
-        server.terminate()
-        try:
-            server.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait(timeout=15)
-        log.close()
 
 
 MODEL_VALUE_JS = "return Bokeh.documents[0].get_model_by_name(arguments[0]).value"
@@ -130,44 +140,16 @@ MODEL_VALUE_JS = "return Bokeh.documents[0].get_model_by_name(arguments[0]).valu
 def test_a_burst_of_40_key_presses_ends_at_the_last_value(tmp_path):
     """Issue 43: 40 arrow-key presses on α left the plots at α 0.238 while the slider said 0.28, 91 s later.
     Coalesced, the status line reaches the slider's last value, and far fewer than 40 updates were computed."""
-    exe, driver_exe = _chromium(), shutil.which("chromedriver")
-    if exe is None or driver_exe is None:
-        pytest.skip("no chromium/chromedriver on this machine (CI installs Debian's chromium and chromium-driver)")
-    webdriver = pytest.importorskip("selenium.webdriver")
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
-    port = _free_port()
-    url = f"http://127.0.0.1:{port}/"
-    log = open(tmp_path / "explore.log", "w")
-    server = subprocess.Popen([sys.executable, "-m", "brdflab.cli.main", "explore", "--port", str(port),
-                               "--no-browser"], stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-    driver = None
-    try:
-        def up():
-            if server.poll() is not None:
-                pytest.fail(f"explore exited with {server.returncode}")
-            try:
-                return urllib.request.urlopen(url, timeout=5).status == 200
-            except OSError:
-                return False
-
-        _wait(up, 90, "the explorer to serve")
-        opts = webdriver.ChromeOptions()
-        for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,1000",
-                  "--disable-background-networking", "--disable-component-update", f"--user-data-dir={tmp_path}/p"):
-            opts.add_argument(a)
-        opts.binary_location = exe
-        driver = webdriver.Chrome(options=opts, service=webdriver.ChromeService(executable_path=driver_exe))
-        driver.set_page_load_timeout(90)
-        driver.set_script_timeout(30)
-        driver.get(url)
+    with _explorer(tmp_path) as driver:
+        driver.get(driver.url_served)
         _wait(lambda: "peak f" in driver.execute_script(STATUS_JS), 90, "the first plots")
         sliders = _wait(lambda: driver.execute_script(SLIDERS_JS), 30, "the sliders")
         handle = next(h for t, h in sliders if t.startswith("alpha"))
         ActionChains(driver).click(handle).perform()
         _wait(lambda: "peak f" in driver.execute_script(STATUS_JS), 60, "the click's update")
-        start = driver.execute_script(STATUS_JS).split("id=\"updates\"")[0]
         keys = ActionChains(driver)
         for _ in range(40):
             keys.send_keys(Keys.ARROW_RIGHT)
@@ -181,14 +163,4 @@ def test_a_burst_of_40_key_presses_ends_at_the_last_value(tmp_path):
         final = _wait(settled, 120, f"the status line to show the slider's last value alpha={last:g}")
         assert float(driver.execute_script(MODEL_VALUE_JS, "param_alpha")) == last  # no straggler moved it
         runs = int(final.split("hidden>")[1].split("<")[0])
-        assert runs <= 12, f"{runs} updates for 40 key presses (coalescing failed); {start[:80]}"
-    finally:
-        if driver is not None:
-            driver.quit()
-        server.terminate()
-        try:
-            server.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait(timeout=15)
-        log.close()
+        assert runs <= 12, f"{runs} updates for 40 key presses (coalescing failed)"

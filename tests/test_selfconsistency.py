@@ -76,25 +76,31 @@ def test_visible_normal_samples_pass_against_roughconductor(tmp_path, alpha):
     assert "WRONG" not in text and "sampled directions are right" not in text
 
 
-def test_false_alarms_and_power_are_measured():
-    """Correct samplers of two methods are rejected at about the nominal rate; planted bugs always."""
+def _conductor_draws(rng, n: int):
+    """A conductor (R0 0.5, α 0.3) at θ_i 60°: its pdf as the reference, a pilot, brdflab's own samples and their
+    valid mask, visible-normal samples (wo, pdf, h) and their valid mask."""
     b = RoughConductor(0.5, 0.3)
     wi1 = np.array([np.sin(np.radians(60.0)), 0.0, np.cos(np.radians(60.0))])
 
     def ref(w):
         return np.where(w[:, 2] > 0, b.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w), 0.0)
 
+    wi = np.ascontiguousarray(np.broadcast_to(wi1, (n, 3)))
+    pilot = b.sample(wi, rng.random((n, 3)))
+    pilot = pilot.wo[(pilot.pdf > 0) & (pilot.wo[:, 2] > 0)]
+    own = b.sample(wi, rng.random((n, 3)))
+    ok = (own.pdf > 0) & (own.wo[:, 2] > 0)
+    vndf = sample_vndf(wi1, 0.3, rng.random((n, 2)))
+    return ref, pilot, own, ok, vndf, vndf[1] > 0
+
+
+def test_false_alarms_and_power_are_measured():
+    """Correct samplers of two methods are rejected at about the nominal rate; planted bugs always."""
     n, reps = 4_000, 10
     false_alarms, caught = 0, 0
     for rep in range(reps):
         rng = np.random.default_rng([29, rep])
-        wi = np.ascontiguousarray(np.broadcast_to(wi1, (n, 3)))
-        pilot = b.sample(wi, rng.random((n, 3)))
-        pilot = pilot.wo[(pilot.pdf > 0) & (pilot.wo[:, 2] > 0)]
-        own = b.sample(wi, rng.random((n, 3)))
-        ok = (own.pdf > 0) & (own.wo[:, 2] > 0)
-        wo, p, h = sample_vndf(wi1, 0.3, rng.random((n, 2)))
-        okv = p > 0
+        ref, pilot, own, ok, (wo, p, h), okv = _conductor_draws(rng, n)
         cases = [(own.wo[ok], own.pdf[ok], False), (wo[okv], p[okv], False),
                  (wo[okv], p[okv] * 4 * np.abs((wo[okv] * h[okv]).sum(axis=1)), True),
                  (wo[okv], 1.1 * p[okv], True)]
@@ -312,22 +318,10 @@ def test_the_total_catches_a_five_percent_factor():
     """Issue 40: the self-consistency total's power pinned at a 5 % factor of the pdf column (at 10 % only, a
     planted 5 % bug passed 10 runs in 10), for brdflab's own method (w ≡ 1/1.05: the variance collapses) and for
     visible normals (w varies)."""
-    b = RoughConductor(0.5, 0.3)
-    wi1 = np.array([np.sin(np.radians(60.0)), 0.0, np.cos(np.radians(60.0))])
-
-    def ref(w):
-        return np.where(w[:, 2] > 0, b.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w), 0.0)
-
     n, caught = 4_000, 0
     for rep in range(10):
         rng = np.random.default_rng([31, rep])
-        wi = np.ascontiguousarray(np.broadcast_to(wi1, (n, 3)))
-        pilot = b.sample(wi, rng.random((n, 3)))
-        pilot = pilot.wo[(pilot.pdf > 0) & (pilot.wo[:, 2] > 0)]
-        own = b.sample(wi, rng.random((n, 3)))
-        ok = (own.pdf > 0) & (own.wo[:, 2] > 0)
-        wo, p, _ = sample_vndf(wi1, 0.3, rng.random((n, 2)))
-        okv = p > 0
+        ref, pilot, own, ok, (wo, p, _), okv = _conductor_draws(rng, n)
         for w, col in ((own.wo[ok], 1.05 * own.pdf[ok]), (wo[okv], 1.05 * p[okv])):
             caught += not sc.self_consistency_test(w, col, n, ref, pilot, mix_rng=rng).passed
     assert caught == 20
