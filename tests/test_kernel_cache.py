@@ -323,3 +323,31 @@ def test_every_entry_point_runs_without_waiting_for_the_build(tmp_path, args):
     lines = [ln for ln in _warnings(r.stderr) if "compiled kernels not built yet" in ln]
     assert len(lines) == 1 and "this run uses the NumPy engine" in lines[0], r.stderr[-2000:]
     assert not list(root.glob("*/" + cache.MANIFEST))
+
+
+def test_editing_a_kernel_source_rebuilds(tmp_path, monkeypatch):
+    """Issue 40: a stale module keyed wrongly would run the old kernels forever (prebuilt ≠ JIT). The key hashes
+    every kernel source, so an edited source has another key, whose module is not built yet: the next run builds
+    it instead of loading the old one. Negative control: a key of the file names alone does not change."""
+    import shutil
+
+    from brdflab.kernels import aot
+
+    src = tmp_path / "kernels"
+    shutil.copytree(aot.HERE, src, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(aot, "HERE", src)
+    before = aot.key()
+    target = src / "bsdf.py"
+    target.write_text(target.read_text() + "\n# an edit\n")
+    after = aot.key()
+    assert after != before
+    built = aot.lookup(before).state  # whatever the session's cache holds for the old sources
+    assert aot.lookup(after).state == "missing" or built != "built"
+
+    def names_only() -> str:  # the planted bug: sources not hashed
+        return "|".join(p.name for p in sorted(src.glob("*.py")))
+
+    planted = names_only()
+    target.write_text(target.read_text() + "\n# another edit\n")
+    assert names_only() == planted  # such a key would load the stale module ...
+    assert aot.key() != after  # ... brdflab's does not
