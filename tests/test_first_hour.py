@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from brdflab import bench
+from brdflab import benchmarking as bench
 
 
 def test_bench_says_the_cpu_model_and_cores_first():
