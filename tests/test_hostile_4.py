@@ -257,3 +257,14 @@ def test_fit_bounds_by_parameter_name():
     assert _bounds("intIOR", "float", 1.5) == (1.0, 3.0)
     assert _bounds("exponent", "float", 20.0) == (0.0, 200.0)
     assert _bounds("exponent", "float", 0.01) == (0.0, 1.0)
+
+
+def test_fit_standard_errors_follow_the_parameters(conductor_table):
+    """Each parameter gets its own standard errors (a colour three, a float one), small for a noiseless table of
+    the model itself, and none for a parameter at a bound (the linear approximation fails there)."""
+    noisy = conductor_table * (1 + 0.03 * np.random.default_rng(9).standard_normal(conductor_table.shape))
+    res = bl.fit(noisy, "roughconductor", stride=(4, 6, 12))
+    se = res.uncertainty
+    assert np.shape(se["R0"]) == (3,) and np.all(np.asarray(se["R0"]) > 0) and np.all(np.asarray(se["R0"]) < 0.01)
+    assert isinstance(se["alpha"], float) and 0 < se["alpha"] < 0.01
+    assert set(se) == {"R0", "alpha"} and res.to_dict()["uncertainty"]["alpha"] == se["alpha"]
