@@ -62,3 +62,41 @@ def test_a_constant_offset_is_recognised():
     assert "a constant excess of +0.0001" in text and "unlit pixels too" in text, text
     assert A.offset_finding(2e-5 * rng.standard_normal(E.shape), aux, MASK, +1, 4) == ""  # no offset: silent
     assert A.offset_finding(-0.3 * aux.emitter_part + 1e-3 * rng.standard_normal(E.shape), aux, MASK, -1, 4) == ""
+
+
+def test_fit_cells_by_hand():
+    """Fit (1) recomputed by hand: weighted least squares over the cell means, HC3 standard errors, Student's t
+    with cells − regressors degrees of freedom (mutations of the df and of the se = 0 branch survived)."""
+    from scipy import stats
+
+    rng = np.random.default_rng(11)
+    d = -0.3 * E + 0.1 * B + 0.02 * rng.standard_normal(E.shape)
+    mask = MASK.copy()
+    mask[:5, :7] = False  # uneven cell counts: the weights matter
+    f = A.fit_cells(d, [E, B], ["E", "B"], mask, 4)
+    (y, e, b), cnt = A.cell_means([d, E, B], mask, 4)
+    keep = cnt > 0
+    w = np.sqrt(cnt[keep])
+    X = np.stack([e[keep], b[keep]], axis=1) * w[:, None]
+    yw = y[keep] * w
+    beta, *_ = np.linalg.lstsq(X, yw, rcond=None)
+    inv = np.linalg.inv(X.T @ X)
+    r = yw - X @ beta
+    h = np.einsum("ij,jk,ik->i", X, inv, X)
+    cov = inv @ (X.T * (r / (1 - h)) ** 2) @ X @ inv
+    se = np.sqrt(np.diag(cov))
+    p = 2 * stats.t.sf(np.abs(beta / se), keep.sum() - 2)
+    np.testing.assert_allclose(f.coef, beta, rtol=1e-10)
+    np.testing.assert_allclose(f.se, se, rtol=1e-8)
+    np.testing.assert_allclose(f.p, p, rtol=1e-6)
+    assert f.cells == keep.sum()
+
+
+def test_one_emitters_own_light_is_all_the_direct_light():
+    """With one emitter its own light is E + B (mutated to E − B, the emitter fit read the wrong image)."""
+    from tests.conftest import ROOT
+
+    aux = A.render_aux(ROOT / "scenes/cbox/cbox_diffuse.xml", 2, 3, (32, 24), 1)
+    assert aux.per_emitter.shape == (1, 24, 32)
+    np.testing.assert_allclose(aux.per_emitter[0], aux.emitter_part + aux.bsdf_part, rtol=1e-12, atol=0)
+    assert (aux.bsdf_part > 0).any()
