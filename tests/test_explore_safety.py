@@ -296,3 +296,26 @@ def test_a_burst_of_changes_computes_once_on_the_latest_value():
     c = Coalescer(lambda: None, lambda cb: None)
     c._run()
     assert c.runs == 0
+
+
+def test_client_errors_reach_the_log_in_one_line(caplog):
+    """Issue 41: the explorer's log got Bokeh's tracebacks when a client sent junk; now one line each, from the
+    'bokeh' logger and from its modules' own loggers alike (negative control: a logger outside the list keeps it)."""
+    import logging
+
+    from brdflab.viz.server_safety import one_line_logs
+
+    child = logging.getLogger("bokeh.server.protocol_handler")
+    other = logging.getLogger("brdflab.test.elsewhere")
+    one_line_logs()
+    one_line_logs()  # idempotent
+    try:
+        raise ValueError("forged message\nsecond line")
+    except ValueError:
+        with caplog.at_level(logging.ERROR):
+            logging.getLogger("bokeh").error("error handling message", exc_info=True)
+            child.error("from a module's logger", exc_info=True)
+            quiet = caplog.text
+            other.error("elsewhere", exc_info=True)
+    assert "Traceback" not in quiet and quiet.count("(ValueError: forged message)") == 2, quiet
+    assert "Traceback" in caplog.text.split("elsewhere", 1)[1]

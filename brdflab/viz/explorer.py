@@ -38,6 +38,7 @@ import numpy as np
 
 from brdflab.viz import coords, lobe3d, views
 from brdflab.viz.coalesce import DEBOUNCE_MS, Coalescer
+from brdflab.viz.server_safety import _no_tracebacks_to_clients, one_line_logs
 
 #: Albedo curve angles of the explorer (fewer than ``brdflab plot``, so that it stays interactive).
 THETAS = tuple(float(t) for t in range(0, 90, 8))
@@ -434,22 +435,6 @@ def _shown(key: str, value) -> str:
     return f"{key}={value}"
 
 
-def _no_tracebacks_to_clients() -> None:
-    """Make Bokeh's protocol ERROR replies carry no traceback (they reach whatever speaks to the socket)."""
-    from bokeh.server.connection import ServerConnection
-
-    if getattr(ServerConnection.error, "_brdflab", False):
-        return
-
-    def error(self, message, text: str):
-        reply = self.protocol.create("ERROR", message.header["msgid"], "request refused")
-        reply.content["traceback"] = None
-        return reply
-
-    error._brdflab = True
-    ServerConnection.error = error
-
-
 def serve(port: int = 5006, open_browser: bool = True, say=print) -> None:
     """Serve the explorer on http://127.0.0.1:``port``/ until a signal stops it.
 
@@ -468,6 +453,7 @@ def serve(port: int = 5006, open_browser: bool = True, say=print) -> None:
     if not allowed:
         raise BrdflabError("no BSDF type to explore")
     _no_tracebacks_to_clients()
+    one_line_logs()
     origins = [f"127.0.0.1:{port}", f"localhost:{port}"]
     server = Server({"/": Application(FunctionHandler(functools.partial(make_document, allowed=allowed)))},
                     port=port, address="127.0.0.1", allow_websocket_origin=origins, num_procs=1)
