@@ -185,6 +185,7 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     from scipy.optimize import least_squares
 
     from brdflab.bsdf.measured import Measured, read_merl
+    from brdflab.parameters import key_values
     from brdflab.plugins import bsdf_class, bsdf_parameters, parameter_kinds
     from brdflab.workflows import _load_plugins, _specs
 
@@ -198,7 +199,7 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     if fix is not None:
         if fixed is not None:
             raise BrdflabError("fit: give fixed or fix, not both")
-        fixed = fix if isinstance(fix, dict) else _key_values(fix)
+        fixed = fix if isinstance(fix, dict) else key_values(fix, "fix")
     _load_plugins(plugins)
     bsdf_class(model)  # an unknown model fails before the work
     if output is not None:
@@ -323,17 +324,6 @@ def _uncertainty(sol, layout: list[tuple[str, int]], lo: np.ndarray, hi: np.ndar
         block = slice(i, i + width)
         out[k] = None if at_bound[block].any() else (se[block].copy() if width == 3 else float(se[i]))
         i += width
-    return out
-
-
-def _key_values(items: Sequence[str]) -> dict[str, str]:
-    """``["K=V", …]`` → ``{K: V}`` (the command line's ``--fix``; values converted by kind later)."""
-    out: dict[str, str] = {}
-    for item in items:
-        k, sep, v = str(item).partition("=")
-        if not sep or not k.strip():
-            raise BrdflabError(f"fix expects K=V, got '{clean(item, 40)}'")
-        out[k.strip()] = v
     return out
 
 

@@ -74,6 +74,24 @@ def parameter_kinds(cls: type, origin: str | None = None) -> dict[str, str]:
     return out
 
 
+def key_values(items, option: str = "--param") -> dict[str, str]:
+    """``["K=V", …]`` → ``{K: V}``: the values stay text (converted by kind where they are used); an item without
+    ``=`` or with an empty key is a :class:`BrdflabError` naming ``option``.
+
+    Examples
+    --------
+    >>> key_values(["alpha=0.1", "R0=0.9,0.6,0.5"])
+    {'alpha': '0.1', 'R0': '0.9,0.6,0.5'}
+    """
+    out: dict[str, str] = {}
+    for item in items:
+        k, sep, v = str(item).partition("=")
+        if not sep or not k.strip():
+            raise BrdflabError(f"{option} expects K=V, got '{clean(item, 60)}'")
+        out[k.strip()] = v
+    return out
+
+
 def convert_value(kind: str, text: str, what: str) -> Any:
     """Convert the text of a ``--param`` value to ``kind``; raise a BrdflabError naming ``what``."""
     t = text.strip()

@@ -61,13 +61,9 @@ def add_bsdf_options(p: argparse.ArgumentParser, required: bool = False, repeat:
 
 def parse_params(items: list[str]) -> dict[str, str]:
     """``["K=V", …]`` → ``{K: V}`` (values stay text; the registry converts them by kind)."""
-    out: dict[str, str] = {}
-    for item in items:
-        k, sep, v = item.partition("=")
-        if not sep or not k.strip():
-            raise BrdflabError(f"--param expects K=V, got '{_short(item)}'")
-        out[k.strip()] = v
-    return out
+    from brdflab.parameters import key_values
+
+    return key_values(items, "--param")
 
 
 def resolve_bsdf(name: str) -> str:

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCTEST_MODULES = ["brdflab.api", "brdflab.plugins", "brdflab.judges.public", "brdflab.bsdf.roughconductor",
+DOCTEST_MODULES = ["brdflab.api", "brdflab.parameters", "brdflab.plugins", "brdflab.judges.public",
+                   "brdflab.bsdf.roughconductor",
                    "brdflab.judges.material.battery", "brdflab.judges.material.consistency",
                    "brdflab.judges.samples.bsdf_checks",
                    "brdflab.judges.material.furnace", "brdflab.judges.core.guard", "brdflab.judges.core.seeding",

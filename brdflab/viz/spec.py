@@ -104,10 +104,10 @@ def resolve(specs: list[str], alphas: list[float] | None = None, params: list[st
     BrdflabError
         Bad syntax, unknown BSDFs, or a global parameter (or ``--alpha``) that no chosen BSDF has.
     """
-    from brdflab.cli.options import parse_params as parse_param_options
     from brdflab.cli.options import resolve_bsdf
+    from brdflab.parameters import key_values
 
-    common = parse_param_options(params or [])
+    common = key_values(params or [], "--param")
     parsed = [parse_bsdf(t) for t in specs]
     kinds = [_kinds(s.name) for s in parsed]
     for key in common:
