@@ -32,6 +32,11 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 SAMPLES = {"direct_ems": (1, 0), "direct_mats": (0, 1), "direct_mis": (1, 1)}
+#: brdflab's path tracer with MIS against Mitsuba's ``path`` (emitter and BSDF sampling at every vertex, no depth
+#: cap). Mitsuba's Russian roulette is the same rule (survival min(0.95, max β), survivors divided by it); its
+#: ``rr_depth`` is set to brdflab's (:data:`brdflab.integrator.path.RR_DEPTH`, the vertex it starts at) so that
+#: both trace paths of the same expected length.
+PATHS = {"path_mis": 3}
 #: Nori's default indices of refraction for ``roughsubstrate`` (spec §10).
 INT_IOR, EXT_IOR = 1.5046, 1.000277
 
@@ -88,11 +93,16 @@ def translate(scene: Path, integrator: str, out: Path, spp: int = 64) -> Path:
     root = ET.parse(scene).getroot()
     base = scene.parent.resolve()
     rel = Path(os.path.relpath(base, out.parent.resolve()))
-    es, bs = SAMPLES[integrator]
+    if integrator in PATHS:
+        integ = (f'  <integrator type="path"><integer name="max_depth" value="-1"/>'
+                 f'<integer name="rr_depth" value="{PATHS[integrator]}"/></integrator>')
+    else:
+        es, bs = SAMPLES[integrator]
+        integ = (f'  <integrator type="direct"><integer name="emitter_samples" value="{es}"/>'
+                 f'<integer name="bsdf_samples" value="{bs}"/></integrator>')
     lines = ['<scene version="3.0.0">',
              f'  <!-- Mitsuba 3 translation of {scene.name} for {integrator} (benchmarks/mitsuba/translate.py) -->',
-             f'  <integrator type="direct"><integer name="emitter_samples" value="{es}"/>'
-             f'<integer name="bsdf_samples" value="{bs}"/></integrator>']
+             integ]
     cam = root.find("camera")
     cp = _props(cam)
     lines += ['  <sensor type="perspective">',
@@ -110,8 +120,11 @@ def translate(scene: Path, integrator: str, out: Path, spp: int = 64) -> Path:
         filename = (rel / _value(mp, "filename", "")).as_posix()
         inner = [f'<string name="filename" value="{filename}"/>', _transform(mesh.find("transform"))]
         bsdf = mesh.find("bsdf")
-        inner.append(_bsdf(bsdf) if bsdf is not None else _bsdf(ET.Element("bsdf", type="diffuse")))
         em = mesh.find("emitter")
+        if em is not None and integrator in PATHS:  # the course's rule: a path that hits an emitter ends there
+            inner.append('<bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>')
+        else:
+            inner.append(_bsdf(bsdf) if bsdf is not None else _bsdf(ET.Element("bsdf", type="diffuse")))
         if em is not None:
             inner.append(f'<emitter type="area">{_rgb("radiance", _value(_props(em), "radiance", "1, 1, 1"))}'
                          "</emitter>")
@@ -143,7 +156,7 @@ def main() -> None:
     """Command line: translate one scene."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", type=Path)
-    ap.add_argument("integrator", choices=sorted(SAMPLES))
+    ap.add_argument("integrator", choices=sorted(SAMPLES) + sorted(PATHS))
     ap.add_argument("out", type=Path)
     ap.add_argument("--spp", type=int, default=64)
     a = ap.parse_args()
