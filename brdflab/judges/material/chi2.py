@@ -288,7 +288,11 @@ def bsdf_test(name: str, bsdf, theta_deg: float, n: int, seed: int = 0, params: 
     def sample(u):
         wi = np.ascontiguousarray(np.broadcast_to(wi1, (len(u), 3)))
         r = checked_bsdf.sample(wi, u)
-        return r.wo, r.pdf
+        if r.delta is None or not np.any(r.delta):
+            return r.wo, r.pdf
+        # A BSDF mixing delta and smooth lobes: the delta samples are outside the density (their pdf is a
+        # discrete probability), so they count, with the failed samples, in the cell of expectation n(1 − ∫p dω).
+        return r.wo, np.where(r.delta, 0.0, r.pdf)
 
     def pdf(w):
         return checked_bsdf.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w)

@@ -53,6 +53,10 @@ class AlbedoPoint:
         ρ as the mean sample weight and its standard error.
     seed, params
         The test's seed and the BSDF's parameters.
+    delta_part, delta_stderr
+        The energy of the delta lobes of a BSDF that mixes delta and smooth lobes (the mean weight of its
+        delta samples; 0 otherwise): not in either estimate above (the quadrature of f cannot see a delta), but
+        counted in ρ ≤ 1.
     fault
         Why the check could not run (a plugin broke its contract), or None.
     message
@@ -70,6 +74,8 @@ class AlbedoPoint:
     params: dict = field(default_factory=dict)
     fault: str | None = None
     message: str = ""
+    delta_part: float = 0.0
+    delta_stderr: float = 0.0
 
     @property
     def sigma(self) -> float:
@@ -79,8 +85,9 @@ class AlbedoPoint:
     @property
     def energy_ok(self) -> bool:
         """ρ ≤ 1: quadrature within 10⁻³ + 3× its error, Monte Carlo within 4σ + 10⁻³."""
-        return (self.quadrature <= 1 + 1e-3 + 3 * self.quad_error
-                and self.monte_carlo <= 1 + 4 * self.mc_stderr + 1e-3)
+        d, de = self.delta_part, self.delta_stderr
+        return bool(self.quadrature + d <= 1 + 1e-3 + 3 * self.quad_error + 4 * de
+                    and self.monte_carlo + d <= 1 + 4 * float(np.hypot(self.mc_stderr, de)) + 1e-3)
 
     @property
     def agree(self) -> bool:
@@ -100,6 +107,8 @@ class AlbedoPoint:
             return f"{head}: {self.fault}"
         s = (f"{head}: ρ quadrature {self.quadrature:.5f} ± {self.quad_error:.1e}, Monte Carlo "
              f"{self.monte_carlo:.5f} ± {self.mc_stderr:.1e}")
+        if self.delta_part:
+            s += f" (smooth lobes), delta lobes {self.delta_part:.5f} ± {self.delta_stderr:.1e}"
         if not self.agree:
             s += (f"; the estimates DISAGREE by {abs(self.quadrature - self.monte_carlo) / max(self.sigma, 1e-12):.0f}σ"
                   " (eval, pdf and sample do not describe the same BSDF)")
@@ -152,14 +161,28 @@ def albedo_quadrature(bsdf, theta_deg: float, alpha: float | None = None, seed: 
 
 def albedo_monte_carlo(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0,
                        phi_deg: float = 0.0) -> tuple[float, float]:
-    """ρ(θ_i) as the mean sample weight (luminance) and its standard error."""
+    """ρ(θ_i) as the mean sample weight (luminance) and its standard error (delta lobes included)."""
+    smooth, se, delta, dse = albedo_monte_carlo_parts(bsdf, theta_deg, n, seed, phi_deg)
+    w_se = float(np.hypot(se, dse))  # an upper bound: the two parts of one sample are exclusive
+    return smooth + delta, w_se
+
+
+def albedo_monte_carlo_parts(bsdf, theta_deg: float, n: int = 100_000, seed: int = 0,
+                             phi_deg: float = 0.0) -> tuple[float, float, float, float]:
+    """ρ(θ_i) in two parts, each the mean of the sample weights (luminance) times the indicator of its
+    samples, with its standard error: (smooth lobes, error, delta lobes, error). The smooth part is what
+    ∫ f cos θ_o dω_o (:func:`albedo_quadrature`) computes; the delta part is 0 unless the BSDF mixes delta and
+    smooth lobes (samples flagged ``delta``)."""
     rng = np.random.default_rng(seed)
     wi = np.ascontiguousarray(np.broadcast_to(incident(theta_deg, phi_deg), (n, 3)))
     s = bsdf.sample(wi, rng.random((n, 3)))
     w = _luminance(s.weight)
     if getattr(bsdf, "has_transmission", False):
         w = w * energy_scale(bsdf, wi, s.wo)
-    return float(w.mean()), float(w.std(ddof=1) / np.sqrt(n))
+    d = np.zeros(n, bool) if s.delta is None else np.asarray(s.delta, bool)
+    ws, wd = np.where(d, 0.0, w), np.where(d, w, 0.0)
+    return (float(ws.mean()), float(ws.std(ddof=1) / np.sqrt(n)), float(wd.mean()),
+            float(wd.std(ddof=1) / np.sqrt(n)))
 
 
 def energy_scale(bsdf, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -221,8 +244,9 @@ def furnace_point(bsdf, *, theta: float = 0.0, samples: int = 100_000, seed: int
         return p
     try:
         q, qe = albedo_quadrature_with_error(b, theta, seed=int(s_quad.generate_state(1)[0]), phi_deg=phi)
-        m, se = albedo_monte_carlo(b, theta, samples, seed=int(s_mc.generate_state(1)[0]), phi_deg=phi)
-        p = AlbedoPoint(name, alpha, float(theta), q, m, se, qe, seed, params)
+        m, se, dm, dse = albedo_monte_carlo_parts(b, theta, samples, seed=int(s_mc.generate_state(1)[0]),
+                                                  phi_deg=phi)
+        p = AlbedoPoint(name, alpha, float(theta), q, m, se, qe, seed, params, delta_part=dm, delta_stderr=dse)
     except PluginFault as fault:
         p = AlbedoPoint(name, alpha, float(theta), float("nan"), float("nan"), float("nan"), float("nan"), seed,
                         params, fault=str(fault))
@@ -319,5 +343,5 @@ def furnace_test(bsdf, thetas=(0.0, 30.0, 60.0, 85.0), samples: int = 50_000, se
     return FurnaceResult(name, params, base, pts)
 
 
-__all__ = ["AlbedoPoint", "FurnaceResult", "albedo_curve", "albedo_monte_carlo", "albedo_quadrature",
-           "format_params", "furnace_point", "furnace_test"]
+__all__ = ["AlbedoPoint", "FurnaceResult", "albedo_curve", "albedo_monte_carlo", "albedo_monte_carlo_parts",
+           "albedo_quadrature", "format_params", "furnace_point", "furnace_test"]
