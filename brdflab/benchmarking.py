@@ -50,6 +50,7 @@ COURSE_CASES: dict[str, tuple[str, tuple[str, ...]]] = {
     "veach_mats": ("../shared/scenes/assignment-3/veach_mi/veach_mats.xml", ("direct_mats",)),
     "veach_mis": ("../shared/scenes/assignment-3/veach_mi/veach_mis.xml", ("direct_mis",)),
     "cbox_path_mis": ("../shared/scenes/assignment-4/cbox/cbox_mis.xml", ("path_mis",)),
+    "cbox_caustics_mis": ("../shared/scenes/assignment-4/cbox/cbox_caustics_mis.xml", ("path_mis",)),
 }
 CASES.update(COURSE_CASES)
 

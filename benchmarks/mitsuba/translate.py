@@ -80,6 +80,12 @@ def _bsdf(elem: ET.Element) -> str:
                 f'<float name="ext_ior" value="{_value(p, "extIOR", str(EXT_IOR))}"/>'
                 '<boolean name="nonlinear" value="false"/>'
                 f'{_rgb("diffuse_reflectance", _value(p, "kd", "0.5, 0.5, 0.5"))}</bsdf>')
+    if kind == "mirror":  # a perfect mirror: Mitsuba's conductor without Fresnel (reflectance 1)
+        return '<bsdf type="conductor"><string name="material" value="none"/></bsdf>'
+    if kind == "dielectric":  # smooth glass; both scale refracted radiance by (η_i/η_t)²
+        return ('<bsdf type="dielectric">'
+                f'<float name="int_ior" value="{_value(p, "intIOR", str(INT_IOR))}"/>'
+                f'<float name="ext_ior" value="{_value(p, "extIOR", str(EXT_IOR))}"/></bsdf>')
     raise ValueError(f"no Mitsuba translation for bsdf type '{kind}'")
 
 
