@@ -295,7 +295,7 @@ def test_concurrent_first_runs_one_build_none_waits(tmp_path):
     for out, err in strict:  # like two workers of a cluster, told the compiled engine by their client
         assert out.split() == ["numba", "aot", "True"], err[-2000:]
     aot.wait_for_build(root)
-    assert sorted(p.name for p in root.iterdir()) == [".build.lock", aot.key(), cache.LOG]
+    assert sorted(p.name for p in root.iterdir()) == sorted([".build.lock", aot.key(), cache.LOG])
     assert len((root / cache.LOG).read_text().splitlines()) == 1  # one build
     assert list(tmpdir.iterdir()) == []
     again = _probe(root, BRDFLAB_AOT_BUILD="1")
@@ -335,7 +335,7 @@ def test_editing_a_kernel_source_rebuilds(tmp_path, monkeypatch):
 
     src = tmp_path / "kernels"
     shutil.copytree(aot.HERE, src, ignore=shutil.ignore_patterns("__pycache__"))
-    monkeypatch.setattr(aot, "HERE", src)
+    monkeypatch.setattr(cache, "HERE", src)  # where cache.sources_hash reads the sources
     before = aot.key()
     target = src / "bsdf.py"
     target.write_text(target.read_text() + "\n# an edit\n")
@@ -351,3 +351,35 @@ def test_editing_a_kernel_source_rebuilds(tmp_path, monkeypatch):
     target.write_text(target.read_text() + "\n# another edit\n")
     assert names_only() == planted  # such a key would load the stale module ...
     assert aot.key() != after  # ... brdflab's does not
+
+
+def test_editing_an_inlined_helper_recompiles_the_jit(tmp_path):
+    """numba's own disk cache is keyed by each function's file: after an edit of ``scalar.beckmann_d`` (a helper
+    inlined into ``bsdf.py``'s kernels) it loaded the old machine code of the kernels — and so did the
+    ahead-of-time build, which compiles through the JIT (a mutation of that line survived the kernel tests).
+    The JIT's cache folder is named by the hash of every kernel source: the edit must show in f, twice the
+    Beckmann D giving twice the conductor's f."""
+    pkg = tmp_path / "src"
+    shutil.copytree(ROOT / "brdflab", pkg / "brdflab", ignore=shutil.ignore_patterns("__pycache__"))
+    code = ("from brdflab import kernels, RoughConductor; import numpy as np\n"
+            "f = RoughConductor(alpha=0.3).eval(np.array([[0, 0, 1.0]]), np.array([[0, 0.6, 0.8]]))[0, 0]\n"
+            "print(repr(float(f)), kernels.engine(), kernels.backend())\n")
+
+    def probe() -> list[str]:
+        r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                           env=_env(tmp_path / "cache", PYTHONPATH=str(pkg), BRDFLAB_AOT="0", BRDFLAB_ENGINE="numba",
+                                    PYTHONDONTWRITEBYTECODE="1"))
+        assert r.returncode == 0, r.stderr[-2000:]
+        return r.stdout.split()
+
+    (tmp_path / "cache").mkdir(mode=0o700)
+    first = probe()
+    assert first[1:] == ["numba", "jit"]
+    scalar = pkg / "brdflab" / "kernels" / "scalar.py"
+    text = scalar.read_text()
+    assert text.count("    return d if math.isfinite(d) else 0.0\n") == 1
+    scalar.write_text(text.replace("    return d if math.isfinite(d) else 0.0\n",
+                                   "    return 2.0 * d if math.isfinite(d) else 0.0\n"))
+    second = probe()
+    assert float(second[0]) == pytest.approx(2 * float(first[0]), rel=1e-12)
+    assert len(list((tmp_path / "cache" / "jit").iterdir())) == 2  # one folder per version of the sources

@@ -87,7 +87,7 @@ def test_a_failed_build_is_remembered_and_falls_back(tmp_path):
 
     with pytest.raises(aot._Stopped):
         aot.run_build(tmp_path, "k2", interrupted)
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".build.lock", aot.key(), "builds.log"]  # nothing of k2
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([".build.lock", aot.key(), "builds.log"])  # not k2
     code = ("import sys; from brdflab import kernels, RoughConductor; import numpy as np; "
             "print(RoughConductor(alpha=0.3).eval(np.array([[0, 0, 1.0]]), np.array([[0, 0.6, 0.8]]))[0, 0]); "
             "print(kernels.engine(), kernels.backend() or '-')")

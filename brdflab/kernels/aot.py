@@ -73,9 +73,7 @@ def key() -> str:
     """The build's key: a hash of the kernel sources, of what compiles them (numba, llvmlite, NumPy: each
     package's ``__init__.py``, path, size and modification time, which an upgrade or a reinstall changes;
     cheaper than reading their metadata) and of the Python and the CPU."""
-    h = hashlib.sha256()
-    for path in sorted(HERE.glob("*.py")):  # the kernels, their helpers and this build
-        h.update(path.name.encode() + path.read_bytes())
+    h = hashlib.sha256(cache.sources_hash().encode())
     for name in ("numba", "llvmlite", "numpy"):
         spec = importlib.util.find_spec(name)
         origin = spec.origin if spec is not None else None
@@ -101,7 +99,7 @@ def load_module(path: Path) -> ModuleType:
 def _child_env() -> dict[str, str]:
     """The builder's environment: brdflab importable from where this process found it, numba's JIT."""
     path = [str(HERE.parent.parent)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-    return {**os.environ, "PYTHONPATH": os.pathsep.join(path), "BRDFLAB_AOT": "0"}
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(path), "BRDFLAB_AOT": "0", "BRDFLAB_JIT_CACHE": "0"}
 
 
 #: Builders started in the background by this process (kept so that they are not reported as leaked).

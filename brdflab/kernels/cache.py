@@ -54,6 +54,15 @@ def module_name() -> str:
     return NAME + importlib.machinery.EXTENSION_SUFFIXES[0]
 
 
+def sources_hash() -> str:
+    """SHA-256 of every kernel source (``brdflab/kernels/*.py``, names and contents): part of the build's key
+    (:func:`brdflab.kernels.aot.key`) and the name of the JIT's disk cache (:mod:`brdflab.kernels.jit`)."""
+    h = hashlib.sha256()
+    for path in sorted(HERE.glob("*.py")):  # the kernels, their helpers and their build
+        h.update(path.name.encode() + path.read_bytes())
+    return h.hexdigest()
+
+
 def roots() -> list[Path]:
     """Cache folders, in the order they are tried: ``$BRDFLAB_KERNEL_CACHE`` alone if set, else
     ``brdflab/kernels/__pycache__/aot`` and ``$XDG_CACHE_HOME/brdflab/kernels`` (``~/.cache``)."""

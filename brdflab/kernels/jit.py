@@ -16,7 +16,12 @@ The compile options (both backends):
 * One explicit signature per kernel, with arrays of any layout (``"A"``: C, Fortran or strided views all
   fit) and inputs typed read-only (writable arrays fit too). The wrappers convert arguments to these types
   (float64 directions, int64 indices).
-* ``cache=True``: the JIT's machine code is stored beside the module (``__pycache__``).
+* ``cache=True``: the JIT's machine code is stored on disk, in ``jit/<hash of every kernel source>`` under the
+  kernels' cache folder (:func:`brdflab.kernels.cache.writable_root`; no disk cache without one). Numba's own
+  default, ``__pycache__`` beside the module, is keyed by the function's own file only: after an edit of a
+  helper inlined from another file (``scalar.py``, ``shading.py``) it loaded the old machine code — and so
+  did the ahead-of-time build, which compiles through the JIT (a mutation of ``scalar.beckmann_d`` ran the
+  unmutated kernels; ``tests/test_kernel_cache.py`` edits a helper and checks).
 * ``error_model="numpy"``: a division by zero gives ±inf/NaN as in NumPy (the NumPy code relies on it
   and masks afterwards), not a Python exception.
 * ``fastmath=False``: IEEE arithmetic, no reassociation and no fused multiply-add contraction, so the
@@ -26,11 +31,16 @@ The compile options (both backends):
 
 from __future__ import annotations
 
+import functools
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 
 import numpy as np
+
+from brdflab.kernels import cache
 
 OPTIONS = dict(nopython=True, cache=True, error_model="numpy", fastmath=False, nogil=True)
 
@@ -81,10 +91,9 @@ def kernel(*argtypes: Arg):
     def wrap(fn):
         if BACKEND.mode == "aot":
             return guarded(getattr(BACKEND.ext, export_name(fn)), export_name(fn), argtypes)
-        import numba
         from numba import types
 
-        disp = numba.jit(types.void(*(a.numba_type() for a in argtypes)), **OPTIONS)(fn)
+        disp = _jit(fn, types.void(*(a.numba_type() for a in argtypes)))
         KERNELS.append((export_name(fn), disp, argtypes))
         return disp
 
@@ -96,9 +105,34 @@ def inline(fn):
     where nothing calls it)."""
     if BACKEND.mode == "aot":
         return fn
-    import numba
+    return _jit(fn, inline="always")
 
-    return numba.jit(inline="always", **OPTIONS)(fn)
+
+@functools.cache
+def jit_cache_folder() -> Path | None:
+    """Where the JIT keeps its machine code: ``<cache root>/jit/<hash of the kernel sources>`` (None: no safe
+    cache folder, or ``BRDFLAB_JIT_CACHE=0`` as the ahead-of-time builder sets: no disk cache)."""
+    if os.environ.get("BRDFLAB_JIT_CACHE", "1").strip() == "0":  # the ahead-of-time builder: compiles afresh
+        return None
+    root, _ = cache.writable_root()
+    return None if root is None else root / "jit" / cache.sources_hash()[:20]
+
+
+def _jit(fn, *args, **options):
+    """``numba.jit(*args, **OPTIONS, **options)(fn)`` with its disk cache in :func:`jit_cache_folder` (numba
+    reads the folder when the dispatcher is made, so it is set only around that; a user's own numba
+    functions keep theirs)."""
+    import numba
+    from numba.core import config
+
+    folder = jit_cache_folder()
+    saved = config.CACHE_DIR
+    if folder is not None:
+        config.CACHE_DIR = str(folder)
+    try:
+        return numba.jit(*args, **{**OPTIONS, **options, "cache": folder is not None})(fn)
+    finally:
+        config.CACHE_DIR = saved
 
 
 def guarded(fn: Callable, name: str, argtypes: tuple[Arg, ...]) -> Callable:
