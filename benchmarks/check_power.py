@@ -10,7 +10,7 @@ for a direct_mis scene). From the direct_ems render three biased images are made
 cost per check.
 
 Usage: python benchmarks/check_power.py [--trials 50] [--scale 0.25 | --full] [--scene PATH ...]
-       [--cache DIR] [--other-trials 5] [--json OUT]
+       [--cache DIR] [--other-trials 5] [--where] [--json OUT]
 
 The scene is the course's Cornell box (../shared/scenes/assignment-3/cbox/cbox_mats.xml) when present,
 else the bundled scenes/cbox/cbox_diffuse.xml; several ``--scene`` alternate trial by trial. brdflab
@@ -99,8 +99,27 @@ class RenderCache:
 
 
 def other_integrator(scene_integrator: str) -> str:
-    """Another unbiased integrator for the user's render."""
+    """Another unbiased integrator for the user's render (a path tracer's: another path tracer)."""
+    if scene_integrator in ("path", "path_nee", "path_mis"):
+        return "path_nee" if scene_integrator == "path_mis" else "path_mis"
     return "direct_ems" if scene_integrator == "direct_mis" else "direct_mis"
+
+
+def where_statement(t: int, scene: Path, integ: str, res, args, user: np.ndarray, estimate: np.ndarray) -> str | None:
+    """The whole-image where-and-what fit of an unbiased render, run whatever the check's verdict (``--where``):
+    the kind of its direct/indirect statement for a path tracer (None: nothing definite), else whether the E/B
+    reading said something definite. Every one of them is a false statement."""
+    from brdflab.stats import attribution as A
+
+    aux = A.render_aux(scene, A.AUX_SPP, 5000 + t, res, args.workers, depth=integ in ("path", "path_nee", "path_mis"))
+    x, y = A._lum(user), A._lum(estimate)
+    d = x - y
+    sign = -1 if d.mean() < 0 else 1
+    r = A.describe_region(np.ones(d.shape, bool), d, y, aux, integ, sign)
+    if "depth_fit" in r:
+        fit = A.Fit(**{k: r["depth_fit"][k] for k in ("coef", "se", "p", "cells", "names")})
+        return A.depth_finding(fit, sign)[1]
+    return None if r["finding"].startswith("nothing definite") else "E/B"
 
 
 def trial(t: int, scene: Path, integ: str, res, args, cache: RenderCache, stats_: dict) -> str:
@@ -122,6 +141,10 @@ def trial(t: int, scene: Path, integ: str, res, args, cache: RenderCache, stats_
         stats_["unbiased"].setdefault(name, []).append(not r.consistent)
         line.append(f"{name} {'ALARM' if not r.consistent else 'ok'} (p {r.p_value:.2g}, "
                     f"{r.dark_blocks}d/{r.bright_blocks}b)")
+    if args.where:
+        kind = where_statement(t, scene, integ, res, args, user["another seed"], first.estimate)
+        stats_["where"].append(kind)
+        line.append(f"where: {kind or 'nothing definite'}")
     stats_["mdb"].append(first.min_detectable_bias)
     stats_["mdbb"].append(first.min_detectable_block_bias)
     for name, img in biased_variants(user["another seed"], first.estimate).items():
@@ -145,6 +168,13 @@ def summarize(scene: Path, integ: str, res, args, st: dict) -> dict:
         lo, hi = clopper_pearson(k, m)
         summary["false_alarms"][name] = {"count": k, "trials": m, "rate": k / m, "ci95": [lo, hi]}
         print(f"  {name:28s} {k}/{m} = {100 * k / m:.1f} %  (95 % CI {100 * lo:.1f} … {100 * hi:.1f} %)")
+    if st["where"]:
+        k, m = sum(w is not None for w in st["where"]), len(st["where"])
+        lo, hi = clopper_pearson(k, m)
+        summary["where_false_statements"] = {"count": k, "trials": m, "rate": k / m, "ci95": [lo, hi],
+                                             "kinds": {str(w): st["where"].count(w) for w in set(st["where"])}}
+        print(f"  where and what, whole image of the unbiased renders (any verdict): a definite statement in "
+              f"{k}/{m} = {100 * k / m:.1f} %  (95 % CI {100 * lo:.1f} … {100 * hi:.1f} %)")
     print("power (biased images flagged):")
     for name, flagged in st["detected"].items():
         k, m = sum(flagged), len(flagged)
@@ -174,6 +204,8 @@ def main() -> int:
                     help="trials that also check a render by another unbiased integrator (default 5)")
     ap.add_argument("--cache", type=Path, help="keep renders here (.npy) and reuse them: re-evaluating the "
                     "check on the same trials costs no rendering")
+    ap.add_argument("--where", action="store_true", help="also run the where-and-what fit on every unbiased render "
+                    "(whatever the verdict) and count definite statements (false by construction)")
     ap.add_argument("--workers", type=int)
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
@@ -186,7 +218,7 @@ def main() -> int:
         cam = sc.camera
         res = (max(16, round(cam.width * scale)), max(16, round(cam.height * scale)))
         setup.append((scene, sc.integrator_type, res, {"unbiased": {}, "detected": {}, "mdb": [], "mdbb": [],
-                                                       "check_seconds": []}))
+                                                       "check_seconds": [], "where": []}))
         print(f"scene {scene}, {res[0]}×{res[1]}, user renders {args.spp} spp, brdflab {args.runs} × "
               f"{args.brdflab_spp} spp {sc.integrator_type}, {args.trials} trials", flush=True)
     for t in range(args.trials):

@@ -13,7 +13,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``plot`` sub-command."""
     from brdflab.cli.argtypes import count, number
     from brdflab.cli.options import add_bsdf_options, add_effort_option, add_force_option
-    from brdflab.viz.static import VIEWS
+    from brdflab.viz.static import DEFAULT_VIEWS, VIEWS
 
     p = sub.add_parser(
         "plot", help="polar plot, 3D lobe, θh×θd slice, albedo and lit sphere of BSDFs (PNG, SVG, CSV, HTML)",
@@ -34,7 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--phi-d", type=number(-360.0, 360.0), default=90.0,
                    help="φ_d of the θh×θd slice in degrees (default 90)")
     p.add_argument("--cos", action="store_true", help="polar plot of f·cos θ_o instead of f")
-    p.add_argument("--views", default=",".join(VIEWS), help=f"comma-separated subset of {','.join(VIEWS)}")
+    p.add_argument("--views", default=",".join(DEFAULT_VIEWS),
+                   help=f"comma-separated subset of {','.join(VIEWS)} (default {','.join(DEFAULT_VIEWS)}; furnace: "
+                   "a path-traced sphere of each BSDF in a white environment, the energy it loses against α)")
     p.add_argument("--samples", type=count(2, 10**8), default=20_000, help="Monte Carlo samples per albedo point")
     p.add_argument("--size", type=count(8, 4096), default=128, help="lit-sphere resolution (default 128)")
     p.add_argument("--spp", type=count(1, 1 << 20), default=16, help="lit-sphere samples per pixel (default 16)")

@@ -129,7 +129,7 @@ def write_check(out: Path, user_paths: list[Path], user: list[np.ndarray], resul
 
 def attribution_section(att: dict) -> str:
     """HTML body of the check page's "Where and what" section: one row per region (whole image first)."""
-    from brdflab.stats.attribution import _fit_text
+    from brdflab.stats.findings import _fits_text
 
     def row(label: str, r: dict) -> list[str]:
         rel = "" if r.get("relative_difference") is None else f"{100 * r['relative_difference']:+.1f} %"
@@ -137,7 +137,7 @@ def attribution_section(att: dict) -> str:
                          + ("" if m.get("relative_difference") is None else
                             f" (difference {100 * m['relative_difference']:+.1f} %)") for m in r["materials"])
         ems = ", ".join(f"{e['name']} {100 * e['share']:.0f} %" for e in r["emitters"])
-        return [label, rel, mats, ems, _fit_text(r["fit"]), r["finding"]]
+        return [label, rel, mats, ems, _fits_text(r), r["finding"]]
 
     rows = [row("whole image", att["whole_image"])]
     for i, r in enumerate(att["regions"], 1):
@@ -148,6 +148,10 @@ def attribution_section(att: dict) -> str:
         "each emitter, and brdflab's direct light split into its emitter-sampled part E and BSDF-sampled part B "
         "(MIS-weighted halves of direct_mis). The difference d = yours − brdflab's (mean of R, G, B) is fitted as "
         f"d ≈ a·E + b·B over cells of {att['cell']}×{att['cell']} pixels (HC3 standard errors); a coefficient is "
-        f"significant at p ≤ {att['level']}. Descriptive: not part of the verdict. See brdflab/stats/attribution.py.")
+        f"significant at p ≤ {att['level']}. "
+        + ("For this path-traced scene also d ≈ a·D + b·I, with D and I brdflab's direct and indirect light "
+           "(path_mis split by path length: at most two segments, and the longer paths), so b is the relative error "
+           "of your indirect light. " if "depth_fit" in att["whole_image"] else "")
+        + "Descriptive: not part of the verdict. See brdflab/stats/attribution.py.")
     return intro + html.table(["where", "difference", "materials (pixel share)", "emitters (share of the light)",
                                "fit", "finding"], rows)

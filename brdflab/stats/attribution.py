@@ -9,7 +9,12 @@ cheap auxiliary images of the scene at the check's resolution (:func:`render_aux
   so E + B is the estimate without camera-visible emission). E dominates on diffuse surfaces lit by small
   lights, B on glossy surfaces reflecting large ones;
 * the **direct light of each emitter** alone (emitter sampling with the selection probability set to 1 for
-  that emitter), for the brightest :data:`MAX_EMITTERS` emitters.
+  that emitter), for the brightest :data:`MAX_EMITTERS` emitters;
+* for a path-traced scene (``path``, ``path_nee``, ``path_mis``), brdflab's **direct and indirect light** D and I
+  (:func:`depth_parts`): two ``path_mis`` renders with one seed, one with ``maxDepth`` 2 (paths of at most two
+  segments: emitters seen directly and direct light) and one unlimited; the first bounce draws the same random
+  numbers in both, so D is exactly the short paths' part of the full render and I = full − D the longer paths'
+  (tested).
 
 For each flagged region (a connected set of too-dark, or too-bright, blocks of the check's map) and for the
 whole image, :func:`attribute` then reports the materials covering it (pixel shares, each with its own
@@ -18,14 +23,15 @@ user's difference d = x̄ − ȳ (mean of R, G, B) on the two parts,
 
     d ≈ a·E + b·B                                                                                      (1)
 
-over cells of :data:`CELL` × :data:`CELL` pixels, with heteroscedasticity-robust (HC3, MacKinnon & White
-1985) standard errors and Student's t with n − 2 degrees of freedom. A deficit that *follows
-emitter-sampled light* (a < 0 significant at :data:`LEVEL`, b not) points at light sampling or the shadow
-test; one that follows BSDF-sampled light (b < 0, a not) at BSDF sampling (its weight or pdf, or the
-emission found by BSDF rays); otherwise nothing definite is said — a deficit proportional to all direct
+(and, for a path-traced scene, d ≈ a·D + b·I: "your indirect light is 5 % short" is b = −0.05;
+:func:`brdflab.stats.findings.depth_finding`) over cells of :data:`CELL` × :data:`CELL` pixels, with
+heteroscedasticity-robust (HC3, MacKinnon & White 1985) standard errors and Student's t with n − 2 degrees of
+freedom. A deficit that *follows emitter-sampled light* (a < 0 significant at :data:`LEVEL`, b not) points at light
+sampling or the shadow test; one that follows BSDF-sampled light (b < 0, a not) at BSDF sampling (its weight or
+pdf, or the emission found by BSDF rays); otherwise nothing definite is said — a deficit proportional to all direct
 light (a ≈ b) is explained by the integrator the scene asks for (``direct_ems`` samples only emitters,
-``direct_mats`` only BSDFs). With several emitters the same fit on the per-emitter images names an emitter
-whose light alone is missing.
+``direct_mats`` only BSDFs). With several emitters the same fit on the per-emitter images names an emitter whose
+light alone is missing.
 
 The fit is descriptive, not part of the check's verdict (which keeps its family-wise level): the regressors
 are brdflab's own noisy estimates (errors in variables shrink a and b toward 0, so noise makes the fit
@@ -43,6 +49,20 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage, stats
 
+# The sentences live in findings.py; re-exported here, the module users (and the tests) know.
+from brdflab.stats.findings import (  # noqa: F401
+    ALL_LIGHT,
+    CAUSE,
+    DOMINANT,
+    ONE_STRATEGY,
+    PRINTED,
+    _fit_text,
+    _formula,
+    attribution_lines,
+    depth_finding,
+    interpret,
+)
+
 #: Side of the cells (pixels) that are the observations of the fits (1).
 CELL = 8
 #: Two-sided level at which a coefficient counts as significant.
@@ -51,9 +71,8 @@ LEVEL = 0.01
 MIN_CELLS = 6
 #: Emitters rendered one by one (the brightest by power); the others are left out of the emitter shares and fit.
 MAX_EMITTERS = 8
-#: Regions reported (largest first); printed on the command line: :data:`PRINTED`.
+#: Regions reported (largest first); printed on the command line: :data:`~brdflab.stats.findings.PRINTED`.
 MAX_REGIONS = 10
-PRINTED = 3
 #: Samples per pixel of the auxiliary renders.
 AUX_SPP = 8
 
@@ -77,6 +96,10 @@ class AuxImages:
     material_short: list[str] = field(default_factory=list)
     """``diffuse #0 white.obj``: type, index and first mesh (for one-line output)."""
     seconds: float = 0.0
+    direct_part: np.ndarray | None = None
+    """(H, W) mean of R, G, B of brdflab's direct light D (path-traced scenes only, else None)."""
+    indirect_part: np.ndarray | None = None
+    """(H, W) mean of R, G, B of brdflab's indirect light I (path-traced scenes only, else None)."""
 
 
 def material_label(scene, i: int, short: bool = False) -> str:
@@ -126,9 +149,28 @@ def material_map(scene) -> np.ndarray:
     return out.reshape(cam.height, cam.width)
 
 
+def depth_parts(scene_path: Path, spp: int = AUX_SPP, seed: int = 0, resolution: tuple[int, int] | None = None,
+                workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) direct and indirect light of brdflab's ``path_mis`` estimate (module docstring): the render with
+    ``maxDepth`` 2, and the unlimited render with the same seed minus it."""
+    from brdflab.renderer import render
+    from brdflab.stats.jobs import RenderJob, load_for, run_seed
+
+    job = RenderJob(Path(scene_path), "path_mis", spp, run_seed(seed, 2, "reference") ^ 0xD1, resolution, workers)
+    imgs = []
+    for max_depth in (2, -1):
+        scene = load_for(job)
+        scene.integrator.max_depth = max_depth
+        img, _ = render(scene, spp=spp, seed=job.seed, workers=workers)
+        imgs.append(np.asarray(img, np.float64))
+    return imgs[0], imgs[1] - imgs[0]
+
+
 def render_aux(scene_path: Path, spp: int = AUX_SPP, seed: int = 0, resolution: tuple[int, int] | None = None,
-               workers: int | None = None, progress: Callable[[str], None] | None = None) -> AuxImages:
-    """Render the auxiliary images of ``scene_path`` (see module docstring); ``resolution`` (width, height)."""
+               workers: int | None = None, progress: Callable[[str], None] | None = None,
+               depth: bool = False) -> AuxImages:
+    """Render the auxiliary images of ``scene_path`` (see module docstring); ``resolution`` (width, height);
+    ``depth``: also brdflab's direct and indirect light (:func:`depth_parts`)."""
     from brdflab.pages.mis_weights import mis_parts
     from brdflab.renderer import render
     from brdflab.stats.jobs import RenderJob, load_for, run_seed
@@ -153,11 +195,16 @@ def render_aux(scene_path: Path, spp: int = AUX_SPP, seed: int = 0, resolution: 
         say(f"where-and-what: light of emitter {e} rendered")
     if n == 1:
         per.append(_lum(em) + _lum(bs))
+    parts = (None, None)
+    if depth:
+        parts = tuple(_lum(p) for p in depth_parts(scene_path, spp, seed, resolution, workers))
+        say("where-and-what: direct and indirect light rendered (path_mis)")
     h, w = mat.shape
     return AuxImages(mat, _lum(em), _lum(bs), np.stack(per) if per else np.zeros((0, h, w)), ids,
                      [material_label(scene, i) for i in range(len(scene.bsdfs))],
                      [emitter_label(scene, e) for e in range(n)], spp=spp, seconds=time.perf_counter() - t0,
-                     material_short=[material_label(scene, i, short=True) for i in range(len(scene.bsdfs))])
+                     material_short=[material_label(scene, i, short=True) for i in range(len(scene.bsdfs))],
+                     direct_part=parts[0], indirect_part=parts[1])
 
 
 def _power(e) -> float:
@@ -246,81 +293,20 @@ def fit_cells(d: np.ndarray, xs: list[np.ndarray], names: list[str], mask: np.nd
     return Fit([float(v) for v in beta], [float(v) for v in se], [float(v) for v in p], int(n), list(names))
 
 
-#: What a difference that follows each part points at.
-CAUSE = {"E": "emitter-sampled light (light sampling / visibility: the shadow test, the light's pdf or radiance)",
-         "B": "BSDF-sampled light (BSDF sampling: its weight or pdf, or the emission found by BSDF rays)"}
-#: What a difference proportional to all direct light points at, by the integrator the scene asks for.
-ALL_LIGHT = {
-    "direct_ems": "the scene's direct_ems samples only emitters, so this points at light sampling / visibility "
-                  "(shadow test, light pdf or selection probability) or the BSDF's eval",
-    "direct_mats": "the scene's direct_mats samples only BSDFs, so this points at BSDF sampling (weight, pdf) "
-                   "or the emission found by BSDF rays",
-    "direct_mis": "both strategies lose it alike: look at what they share (the BSDF's eval, the emitted "
-                  "radiance) or at a wrong MIS weight sum"}
-
-
-#: Integrators that produce only one of the two parts: whatever part a difference follows, its cause is there.
-ONE_STRATEGY = {"direct_ems": "E", "direct_mats": "B", "path": "B"}
-#: One coefficient "dominates" the other when the other is smaller than this share of it.
-DOMINANT = 0.2
-
-
-def _formula(fit: Fit) -> str:
-    return " ".join(f"{c:+.2f}(±{e:.2f})·{n}" for c, e, n in zip(fit.coef, fit.se, fit.names or ["E", "B"],
-                                                                  strict=False))
-
-
-def interpret(fit: Fit | None, sign: int, integrator: str = "", lit_share: float | None = None) -> str:
-    """One sentence: which part the difference (of ``sign`` −1 deficit, +1 excess) follows, what that points at,
-    and the fit it rests on (see module); ``lit_share`` is the difference relative to brdflab's direct light
-    E + B there. What the scene's integrator cannot produce is never named as the cause: a BSDF-only
-    integrator (``direct_mats``, ``path``) has no emitter-sampled part, an emitter-only one no BSDF-sampled part.
-    Both parts significant with opposite signs is the signature of MIS weights that do not add up to 1."""
-    if fit is None:
-        return "too few cells to fit"
-    word = "deficit" if sign < 0 else "excess"
-    a, b = fit.coef[0], fit.coef[1]
-    sig_a, sig_b = fit.significant(0), fit.significant(1)
-    sa, sb = sig_a and np.sign(a) == sign, sig_b and np.sign(b) == sign
-    formula = f" (d ≈ {_formula(fit)})"
-    if sig_a and sig_b and np.sign(a) != np.sign(b):
-        short, more = ("emitter-sampled", "BSDF-sampled") if a < 0 else ("BSDF-sampled", "emitter-sampled")
-        return (f"{short} light is short ({100 * min(a, b):+.0f} % of it) while {more} light is in excess "
-                f"({100 * max(a, b):+.0f} %){formula}: the two strategies' weights do not add up to 1 — look at the "
-                "MIS weights (both densities in solid angle, the emitter-selection probability included in p_light)")
-    only = ONE_STRATEGY.get(integrator.split(":")[0])
-    if only and (sa or sb):
-        size = "" if lit_share is None else f", {100 * lit_share:+.0f} % of it"
-        cause = ALL_LIGHT[integrator.split(":")[0]] if integrator.split(":")[0] in ALL_LIGHT else \
-            f"the scene's {integrator} samples only BSDFs: this points at BSDF sampling (weight, pdf) or the " \
-            "emission found by BSDF rays"
-        return f"the {word} follows direct light{size}{formula}: {cause}"
-    lo, hi = sorted((abs(a), abs(b)))
-    if sa and (not sig_b or (sb and abs(b) < DOMINANT * abs(a))):
-        return f"the {word} follows {CAUSE['E']}{formula}"
-    if sb and (not sig_a or (sa and abs(a) < DOMINANT * abs(b))):
-        return f"the {word} follows {CAUSE['B']}{formula}"
-    if sa and sb:
-        if hi > 0 and lo / hi > 0.5:
-            hint = ALL_LIGHT.get(integrator.split(":")[0], "")
-            size = "" if lit_share is None else f" ({100 * lit_share:+.0f} % of it)"
-            return (f"the {word} follows all direct light{size}{formula}"
-                    + (f": {hint}" if hint else ""))
-        return f"the {word} follows both parts unequally{formula}: nothing definite"
-    return "nothing definite (neither part, or both with opposite signs)"
-
-
 def offset_finding(d: np.ndarray, aux: AuxImages, mask: np.ndarray, sign: int, cell: int = CELL) -> str:
-    """A constant offset: d ≈ c + a·E + b·B over every pixel of ``mask`` that is not an emitter seen directly
-    (misses and unlit surfaces included, where E = B = 0). A significant c with neither part significant — the
-    same difference lit or dark — is a constant added to every pixel (radiance initialised to ε, an ambient
-    term), which no light-transport cause explains. "" when there is none."""
+    """A constant offset: d ≈ c + a·E + b·B (path-traced scenes: c + a·D + b·I, so that surfaces lit only
+    indirectly count as lit) over every pixel of ``mask`` that is not an emitter seen directly (misses and unlit
+    surfaces included, where the parts are 0). A significant c with neither part significant — the same
+    difference lit or dark — is a constant added to every pixel (radiance initialised to ε, an ambient term),
+    which no light-transport cause explains. "" when there is none."""
     keep = mask & (aux.material >= -1)
-    fit = fit_cells(d, [aux.emitter_part, aux.bsdf_part, np.ones(d.shape)], ["E", "B", "1"], keep, cell)
+    parts, names = ([aux.emitter_part, aux.bsdf_part], ["E", "B"]) if aux.indirect_part is None else \
+        ([aux.direct_part, aux.indirect_part], ["D", "I"])
+    fit = fit_cells(d, [*parts, np.ones(d.shape)], [*names, "1"], keep, cell)
     if fit is None or not fit.significant(2) or np.sign(fit.coef[2]) != sign or fit.significant(0) \
             or fit.significant(1):
         return ""
-    dark = keep & (aux.emitter_part + aux.bsdf_part <= 0)
+    dark = keep & (parts[0] + parts[1] <= 0)
     where = f", in unlit pixels too ({int(dark.sum())} of them)" if dark.any() else ""
     return (f"a constant {'excess' if sign > 0 else 'deficit'} of {fit.coef[2]:+.3g} (±{fit.se[2]:.1g}) per pixel"
             f"{where}, unrelated to the light (d ≈ {_formula(fit)}): the radiance starts from a nonzero value or "
@@ -371,6 +357,13 @@ def describe_region(mask: np.ndarray, d: np.ndarray, y: np.ndarray, aux: AuxImag
            "cell": cell, "fit": None if fit is None else fit.to_dict(),
            "finding": offset or interpret(fit, sign, integrator, lit_share),
            "relative_to_direct_light": lit_share}
+    if aux.indirect_part is not None:
+        dfit = fit_cells(d, [aux.direct_part, aux.indirect_part], ["D", "I"], lit, cell)
+        out["depth_fit"] = None if dfit is None else dfit.to_dict()
+        text, kind = depth_finding(dfit, sign)
+        out["depth_finding"] = text
+        if not offset:  # E and B follow I too in a path-traced image: the E/B reading only within direct light
+            out["finding"] = text if kind != "direct" else f"{text}; within the direct light: {out['finding']}"
     if len(aux.emitter_ids) >= 2:
         names = [aux.emitter_labels[e] for e in aux.emitter_ids]
         efit = fit_cells(d, list(aux.per_emitter), names, lit, cell)
@@ -439,33 +432,6 @@ def attribute(result, user: list[np.ndarray], aux: AuxImages, integrator: str = 
             "whole_image": whole, "regions": regs, "integrator": integrator}
 
 
-def _fit_text(f: dict | None) -> str:
-    if not f:
-        return "no fit"
-    (a, b), (sa, sb) = f["coef"], f["se"]
-    return f"d ≈ {a:+.2f}(±{sa:.2f})·E {b:+.2f}(±{sb:.2f})·B over {f['cells']} cells"
-
-
-def _list_text(items: list[dict]) -> str:
-    return ", ".join(f"{i.get('short', i['name'])} {100 * i['share']:.0f} %" for i in items) or "none"
-
-
-def attribution_lines(att: dict, printed: int = PRINTED) -> list[str]:
-    """A few lines for the command line: the whole image and the largest ``printed`` regions."""
-    w = att["whole_image"]
-    lines = [f"where and what (auxiliary renders, {att['aux_spp']} spp, {att['aux_seconds']:.1f} s; E = "
-             "emitter-sampled, B = BSDF-sampled "
-             f"light): whole image: {_fit_text(w['fit'])}: {w['finding']}"]
-    for i, r in enumerate(att["regions"][:printed], 1):
-        rel = "" if r["relative_difference"] is None else f" {100 * r['relative_difference']:+.1f} %"
-        lines.append(f"  region {i} ({r['sign']}{rel}, {r['blocks']} blocks at x {r['x']}…{r['x'] + r['w']}, "
-                     f"y {r['y']}…{r['y'] + r['h']}): materials {_list_text(r['materials'])}; emitters "
-                     f"{_list_text(r['emitters'])}; {_fit_text(r['fit'])}: {r['finding']}")
-    if len(att["regions"]) > printed:
-        lines.append(f"  … {len(att['regions']) - printed} more region(s) in check.json / check.html")
-    return lines
-
-
 def attribute_check(result, user: list[np.ndarray], scene_path: Path, integrator: str, seed: int = 0,
                     spp: int = AUX_SPP, workers: int | None = None,
                     progress: Callable[[str], None] | None = None) -> dict | None:
@@ -473,6 +439,9 @@ def attribute_check(result, user: list[np.ndarray], scene_path: Path, integrator
     consistent, nothing to attribute, or ``spp`` is 0)."""
     if result.consistent or result.estimate is None or spp < 1:
         return None
+    from brdflab.stats.jobs import PATH_TRACERS
+
     h, w = result.estimate.shape[:2]
-    aux = render_aux(scene_path, spp, seed, (w, h), workers, progress)
+    aux = render_aux(scene_path, spp, seed, (w, h), workers, progress,
+                     depth=integrator.split(":")[0] in PATH_TRACERS)
     return attribute(result, user, aux, integrator)

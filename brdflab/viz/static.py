@@ -9,6 +9,8 @@ run leaves no half-written set):
 ``slice.{png,svg}``     θ_h × θ_d image at φ_d, log colour scale; ``slice.csv``
 ``albedo.{png,svg}``    directional albedo, quadrature and Monte Carlo ± 2σ; ``albedo.csv``
 ``sphere.{png,svg}``    lit spheres (point light, environment); ``sphere_<k>_<light>.exr``
+``furnace.{png,svg}``   the white furnace under path tracing (only when asked: ``--views furnace``):
+                        energy lost by a sphere of each BSDF against α; ``furnace.csv``
 ``index.html``          all views and a summary table, images embedded (opens without a server)
 =====================  ==========================================================================
 
@@ -30,7 +32,9 @@ import numpy as np
 from brdflab.errors import BrdflabError, clean
 from brdflab.viz import coords, figures, views
 
-VIEWS = ("polar", "lobe", "slice", "albedo", "sphere")
+VIEWS = ("polar", "lobe", "slice", "albedo", "sphere", "furnace")
+#: The views drawn unless others are asked for (the furnace renders a path-traced sphere per BSDF: on request).
+DEFAULT_VIEWS = ("polar", "lobe", "slice", "albedo", "sphere")
 
 POLAR_NOTE = ("theta_o_deg is signed, in the plane of incidence: omega_o = (-sin t cos phi_i, -sin t sin phi_i, "
               "cos t) for t = theta_o_deg, so positive angles lie on the side opposite omega_i's azimuth (the mirror "
@@ -46,7 +50,7 @@ class PlotOptions:
     theta: float = 45.0
     phi_d: float = 90.0
     times_cos: bool = False
-    views: tuple[str, ...] = VIEWS
+    views: tuple[str, ...] = DEFAULT_VIEWS
     samples: int = 20_000
     sphere_size: int = 128
     sphere_spp: int = 16
@@ -96,6 +100,12 @@ def check_plot_work(opts: PlotOptions, n_bsdfs: int) -> None:
         check_work(spp * opts.sphere_size**2 * n_bsdfs, opts.workers or os.cpu_count() or 1,
                    f"the lit spheres ({opts.sphere_size}² pixels × {spp:,} spp × {n_bsdfs} BSDF(s))",
                    limit_option=None)
+    if "furnace" in opts.views:
+        from brdflab.viz.white_furnace import SPP_FACTOR as FURNACE_SPP
+
+        check_work(opts.sphere_spp * FURNACE_SPP * opts.sphere_size**2 * n_bsdfs, opts.workers or os.cpu_count() or 1,
+                   f"the white furnace ({opts.sphere_size}² pixels × {opts.sphere_spp * FURNACE_SPP:,} spp × "
+                   f"{n_bsdfs} BSDF(s), path traced)", limit_option=None)
 
 
 def write_plots(bsdfs: list, labels: list[str], out: Path, opts: PlotOptions | None = None,
@@ -199,6 +209,8 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
                                  f"({o.sphere_spp} spp; dashed: the silhouette), and a procedural sky with a sun "
                                  f"({o.sphere_spp * sphere.SPP_FACTOR['environment']} spp); linear images in "
                                  "sphere_<bsdf>_<light>.exr (light 0: point, 1: environment)."})
+    if "furnace" in o.views:
+        cards.append(_furnace(bsdfs, labels, out, o, say))
     for c in cards:
         c["png"] = out / f"{c['key']}.png"
         c["svg"] = f"{c['key']}.svg"
@@ -206,3 +218,29 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
             with open(out / c["csv"]) as f:
                 c["preview"] = "".join(next(f) for _ in range(6))
     return cards
+
+
+def _furnace(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -> dict:
+    from brdflab.viz import white_furnace as wf
+
+    say(f"white furnace (path_mis, {o.sphere_size}x{o.sphere_size}, {o.sphere_spp * wf.SPP_FACTOR} spp)")
+    res, mask, mu = wf.render_furnace(bsdfs, labels, o.sphere_size, o.sphere_spp * wf.SPP_FACTOR, o.seed, o.workers)
+    pred = wf.predicted_losses(bsdfs, res, mask, mu)
+    with open(out / "furnace.csv", "w", newline="") as f:
+        f.write(f"# brdflab plot; white furnace: a unit sphere of each BSDF under a uniform environment of radiance "
+                f"1, path_mis ({res[0].spp} spp, {wf.RUNS} independent runs, roulette only, no depth cap)\n"
+                "# mean: mean luminance of the sphere's pixels; loss = 1 - mean; stderr over the runs; "
+                "single_scattering_loss: 1 - mean of the directional albedo by quadrature over the same pixels "
+                "(non-transmissive BSDFs only: one bounce on a convex sphere)\n")
+        w = csv.writer(f)
+        w.writerow(["bsdf", "alpha", "mean", "stderr", "loss", "single_scattering_loss"])
+        for r in res:
+            p = pred.get(r.label)
+            w.writerow([r.label, "" if r.alpha is None else f"{r.alpha:g}", f"{r.mean:.6f}", f"{r.stderr:.6f}",
+                        f"{r.loss:.6f}", "" if p is None else f"{p:.6f}"])
+    figures.save(wf.furnace_figure(res, pred), out / "furnace")
+    return {"key": "furnace", "title": "White furnace (path traced)", "csv": "furnace.csv",
+            "caption": "a sphere of each BSDF in a uniform white environment, rendered by path_mis with Russian "
+                       "roulette only: the energy it loses (1 − its mean radiance; a lossless material reads 0). "
+                       "Dashed: the single-bounce loss by quadrature of the directional albedo (non-transmissive "
+                       "BSDFs: on a convex sphere light bounces once), which the renders must match."}
