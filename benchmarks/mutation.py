@@ -364,6 +364,9 @@ def copy_tree(dst: Path) -> None:
             shutil.copytree(src, dst / part, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         elif src.exists():
             shutil.copy2(src, dst / part)
+    # cli/ is installed as brdflab.cli (pyproject's package-dir): the copy, imported through PYTHONPATH, needs it
+    # there, or it would depend on how the editable install's finder resolves brdflab.cli
+    shutil.copytree(ROOT / "cli", dst / "brdflab" / "cli", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
 
 
 def copy_env(workdir: Path) -> dict[str, str]:
