@@ -93,6 +93,7 @@ SELECTIONS: dict[str, list[str]] = {
                       "tests/test_light_paths.py::test_camera_rays_that_hit_a_light_see_its_radiance"],
     # Issue 40's packages: each with its second line of defence beside the first.
     "brdflab/kernels": ["tests/test_kernels.py", "tests/test_kernels_glue.py", "tests/test_zero_channels.py",
+                        "tests/test_kernels_aot.py", "tests/test_kernel_cache.py",
                         "tests/test_light_paths.py::test_estimators_match_closed_forms",
                         "tests/test_light_paths.py::test_point_light_under_mis_is_the_closed_form",
                         "tests/test_render.py"],
