@@ -114,6 +114,9 @@ def where_statement(t: int, scene: Path, integ: str, res, args, user: np.ndarray
     aux = A.render_aux(scene, A.AUX_SPP, 5000 + t, res, args.workers, depth=integ in ("path", "path_nee", "path_mis"))
     x, y = A._lum(user), A._lum(estimate)
     d = x - y
+    if args.cache and aux.indirect_part is not None:  # the fit's inputs, to re-evaluate it without rendering
+        np.savez_compressed(args.cache / f"where_{scene.stem}_{t}_{res[0]}x{res[1]}.npz", d=d, y=y,
+                            material=aux.material, direct=aux.direct_part, indirect=aux.indirect_part)
     sign = -1 if d.mean() < 0 else 1
     r = A.describe_region(np.ones(d.shape, bool), d, y, aux, integ, sign)
     if "depth_fit" in r:

@@ -395,7 +395,7 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
 def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | None = None,
              thetas: Sequence[float] | None = None, params: dict | None = None, output: str | Path | None = None,
              plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-             force: bool = False, cluster=None):
+             force: bool = False, cluster=None, furnace_render: str = "normal"):
     """Run the validation battery (``brdflab validate``): chi-square, consistency, furnace, stability.
 
     Parameters
@@ -409,11 +409,16 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
         A folder for the HTML report, checked before the work (``force`` replaces files brdflab did not write).
     cluster
         A :class:`brdflab.cluster.Cluster` to run the chi-square tests and consistency checks on.
+    furnace_render
+        The white furnace under path tracing for the page (``quick``, ``normal``, ``full``: sphere size and spp
+        from :data:`brdflab.viz.white_furnace.LEVELS`; ``off``: none): a sphere of each BSDF judged, at its
+        furnace parameters and α, in a uniform white environment (``Battery.white_furnace``; display only).
 
     Returns
     -------
     Battery
-        ``passed``, ``failures()`` and every result; ``output`` also gets ``index.html``.
+        ``passed``, ``failures()`` and every result; ``output`` also gets ``index.html`` (and ``furnace.png``,
+        ``furnace.csv``).
 
     Examples
     --------
@@ -427,6 +432,11 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
     _load_plugins(plugins)
     if samples < 1000:
         raise BrdflabError(f"samples must be at least 1000, got {samples}")
+    from brdflab.errors import clean
+    from brdflab.viz.white_furnace import LEVELS, battery_furnace
+
+    if furnace_render != "off" and furnace_render not in LEVELS:
+        raise BrdflabError(f"furnace_render: expected off, {', '.join(LEVELS)}; got {clean(furnace_render)}")
     kwargs: dict = {}
     if bsdfs is not None:
         kwargs = {"bsdfs": bsdfs if isinstance(bsdfs, list | tuple) else [bsdfs], "warp_names": [],
@@ -439,6 +449,8 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
 
         prepare_folder(Path(output), list(VALIDATION_FILES), _specs(plugins), force)  # before the work
     bat = run_battery(n=samples, progress=progress, cluster=cluster, **kwargs)
+    if furnace_render != "off":
+        bat.white_furnace = battery_furnace(kwargs.get("bsdfs"), params, furnace_render, progress=progress)
     if output is not None:
         from brdflab.outputs import record_outputs
         from brdflab.pages.validation import write_validation_report

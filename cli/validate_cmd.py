@@ -23,6 +23,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per chi-square test, at least 1000 (default 200000)")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
     add_force_option(p, "files in the report folder")
+    p.add_argument("--furnace-render", choices=("off", "quick", "normal", "full"), default="normal",
+                   help="the white furnace under path tracing on the page: a sphere of each BSDF judged in a "
+                        "uniform white environment (quick 32² × 32 spp, normal 64² × 64, full 128² × 256 per "
+                        "sphere; default normal; off: none)")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)
@@ -48,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
         raise BrdflabError("--param, --alpha and --theta need --bsdf NAME")
     with cluster_from_args(args) as cluster:
         bat = validate(bsdfs, samples=args.samples, alphas=args.alpha, thetas=args.theta, params=params, output=out,
-                       force=args.force, plugins=args.plugin, progress=print, cluster=cluster)
+                       force=args.force, plugins=args.plugin, progress=print, cluster=cluster,
+                       furnace_render=args.furnace_render)
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)

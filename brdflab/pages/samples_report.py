@@ -128,7 +128,7 @@ def write_samples_report(res, out: Path) -> Path:
     page = render("validation.html.j2", title=f"brdflab chi-square: {Path(res.path).name} against {res.against}",
                   summary=summary, negative=[], negative_what="", failures=failures, causes=failures, details=details,
                   views_note=__doc__.split("\n\n", 1)[1].replace("\n", " "), rows=rows, consistency=[], albedo=None,
-                  stability=None, light=None)
+                  white=None, stability=None, light=None)
     path = out / "index.html"
     path.write_text(page)
     return path

@@ -22,7 +22,7 @@ from brdflab.pages import chi2_views as cv
 
 #: The files :func:`write_validation_report` may write into its folder (glob patterns; see
 #: :func:`brdflab.outputs.prepare_folder`).
-VALIDATION_FILES = ("index.html", "albedo.png", "chi2_view_*.png")
+VALIDATION_FILES = ("index.html", "albedo.png", "chi2_view_*.png", "furnace.png", "furnace.csv")
 
 
 def _png_uri(data: bytes) -> str:
@@ -156,6 +156,7 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                              + ("yes." if all(p.passed for p in bat.albedo) else "NO.")}
 
     stab = None
+    white = _white_furnace(bat, out)
     if bat.stability:
         bad = [r for r in bat.stability if not r.passed]
         stab = {"summary": f"{len(bat.stability)} extreme cases, {len(bad)} with NaN, infinity or negative values.",
@@ -169,10 +170,33 @@ def write_validation_report(bat: Battery, out: Path, title: str = "brdflab valid
                      "its Jacobian), which the delta judge and the chi-square test must reject"
                      if len(bat.negative_control) > 2 else ""),
                   failures=failures, causes=causes, details=details, views_note=VIEWS_NOTE, rows=rows,
-                  consistency=consistency, albedo=albedo, stability=stab, light=_light_transport(bat))
+                  consistency=consistency, albedo=albedo, white=white, stability=stab, light=_light_transport(bat))
     path = out / "index.html"
     write_text(path, page)
     return path
+
+
+def _white_furnace(bat: Battery, out: Path) -> dict | None:
+    """The path-traced white furnace (:mod:`brdflab.viz.white_furnace`): figure, furnace.csv and table rows."""
+    run = bat.white_furnace
+    if run is None or not run.results:
+        return None
+    from brdflab.viz import white_furnace as wf
+    from brdflab.viz.figures import save
+
+    save(wf.furnace_figure([r for r in run.results if not r.error], run.predicted), out / "furnace",
+         formats=("png",))
+    write_text(out / "furnace.csv", wf.csv_text(run.results, run.predicted, "validate"))
+    rows = []
+    for r in run.rows():
+        p, z = r["single_scattering_loss"], r["z"]
+        rows.append({"cells": [r["material"], "—" if r["alpha"] is None else f"{r['alpha']:g}",
+                               r["error"] or f"{100 * r['loss']:+.2f} % ± {200 * r['stderr']:.2f}",
+                               "—" if p is None else f"{100 * p:+.2f} %", "—" if z is None else f"{z:+.1f}"],
+                     "cls": "fail" if r["error"] else ""})
+    return {"png": out / "furnace.png", "rows": rows, "seconds": f"{run.seconds:.0f}",
+            "what": f"{len(run.results)} spheres, {run.size}² pixels, {run.results[0].spp} spp each "
+                    f"({wf.RUNS} independent runs), path_mis with Russian roulette only"}
 
 
 VIEWS_NOTE = (

@@ -227,17 +227,7 @@ def _furnace(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -> 
     res, mask, mu = wf.render_furnace(bsdfs, labels, o.sphere_size, o.sphere_spp * wf.SPP_FACTOR, o.seed, o.workers)
     pred = wf.predicted_losses(bsdfs, res, mask, mu)
     with open(out / "furnace.csv", "w", newline="") as f:
-        f.write(f"# brdflab plot; white furnace: a unit sphere of each BSDF under a uniform environment of radiance "
-                f"1, path_mis ({res[0].spp} spp, {wf.RUNS} independent runs, roulette only, no depth cap)\n"
-                "# mean: mean luminance of the sphere's pixels; loss = 1 - mean; stderr over the runs; "
-                "single_scattering_loss: 1 - mean of the directional albedo by quadrature over the same pixels "
-                "(non-transmissive BSDFs only: one bounce on a convex sphere)\n")
-        w = csv.writer(f)
-        w.writerow(["bsdf", "alpha", "mean", "stderr", "loss", "single_scattering_loss"])
-        for r in res:
-            p = pred.get(r.label)
-            w.writerow([r.label, "" if r.alpha is None else f"{r.alpha:g}", f"{r.mean:.6f}", f"{r.stderr:.6f}",
-                        f"{r.loss:.6f}", "" if p is None else f"{p:.6f}"])
+        f.write(wf.csv_text(res, pred, "plot"))
     figures.save(wf.furnace_figure(res, pred), out / "furnace")
     return {"key": "furnace", "title": "White furnace (path traced)", "csv": "furnace.csv",
             "caption": "a sphere of each BSDF in a uniform white environment, rendered by path_mis with Russian "

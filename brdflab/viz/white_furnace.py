@@ -24,7 +24,7 @@ The standard error of each mean comes from :data:`RUNS` independent renders (dif
 from __future__ import annotations
 
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +96,8 @@ class FurnaceResult:
     spp: int
     image: np.ndarray = field(repr=False)
     """(H, W) luminance of the sphere (all runs)."""
+    error: str = ""
+    """What the BSDF raised (``render_furnace(catch=True)``); the numbers are then NaN."""
 
     @property
     def loss(self) -> float:
@@ -104,31 +106,46 @@ class FurnaceResult:
 
 
 def render_furnace(bsdfs: list, labels: list[str] | None = None, size: int = 48, spp: int = 64, seed: int = 0,
-                   workers: int | None = None) -> tuple[list[FurnaceResult], np.ndarray, np.ndarray]:
+                   workers: int | None = None, catch: bool = False, alphas: list | None = None
+                   ) -> tuple[list[FurnaceResult], np.ndarray, np.ndarray]:
     """Render a sphere of each BSDF in the white furnace (module docstring); returns the results and the
-    sphere's (mask, μ) from :func:`sphere_cosines`. ``spp`` is split over :data:`RUNS` independent renders."""
+    sphere's (mask, μ) from :func:`sphere_cosines`. ``spp`` is split over :data:`RUNS` independent renders; the
+    k-th BSDF's runs have their own seeds (from ``seed``, k and the run), so the same list gives the same numbers
+    wherever it is rendered (``plot --views furnace``, ``validate``'s page). ``catch``: a BSDF that raises
+    gets a result with NaN numbers and :attr:`FurnaceResult.error` set instead of stopping the others.
+    ``alphas``: each BSDF's α for the figure (default its ``alpha_value``, None without one)."""
     from brdflab.renderer import render
     from brdflab.scene.loader import load_scene
 
     runs_spp = max(1, spp // RUNS)
     out = []
     with tempfile.TemporaryDirectory(prefix="brdflab-furnace-") as tmp:
-        path = write_scene(Path(tmp), size)
-        mask, mu = sphere_cosines(load_scene(path).camera)
-        for k, bsdf in enumerate(bsdfs):
-            means, imgs = [], []
+        base = load_scene(write_scene(Path(tmp), size))  # loaded once: each render gets a copy with its BSDF
+    mask, mu = sphere_cosines(base.camera)
+    for k, bsdf in enumerate(bsdfs):
+        label = labels[k] if labels else getattr(bsdf, "type_name", type(bsdf).__name__)
+        alpha = alphas[k] if alphas is not None else getattr(bsdf, "alpha_value", None)
+        alpha = None if alpha is None else float(alpha)
+        means, imgs = [], []
+        try:
             for r in range(RUNS):
-                scene = load_scene(path)
-                scene.bsdfs[0] = bsdf
-                img, _ = render(scene, spp=runs_spp, seed=seed * 7919 + 97 * k + r, workers=workers)
+                # a new Scene (dataclasses.replace): no per-scene tables cached from another material
+                img, _ = render(replace(base, bsdfs=[bsdf]), spp=runs_spp, seed=seed * 7919 + 97 * k + r,
+                                workers=workers)
                 lum = np.asarray(img, np.float64).mean(axis=2)
                 imgs.append(lum)
                 means.append(float(lum[mask].mean()))
-            alpha = getattr(bsdf, "alpha_value", None)
-            out.append(FurnaceResult(labels[k] if labels else getattr(bsdf, "type_name", type(bsdf).__name__),
-                                     None if alpha is None else float(alpha), float(np.mean(means)),
-                                     float(np.std(means, ddof=1) / np.sqrt(RUNS)), runs_spp * RUNS,
-                                     np.mean(imgs, axis=0)))
+        except Exception as exc:  # noqa: BLE001 - a user's BSDF: reported in its row, the others still render
+            if not catch:
+                raise
+            from brdflab.errors import clean
+
+            why = f"{type(exc).__name__}: {clean(str(exc), 160)}"
+            out.append(FurnaceResult(label, alpha, float("nan"), float("nan"), runs_spp * RUNS,
+                                     np.full(mask.shape, np.nan), error=why))
+            continue
+        out.append(FurnaceResult(label, alpha, float(np.mean(means)), float(np.std(means, ddof=1) / np.sqrt(RUNS)),
+                                 runs_spp * RUNS, np.mean(imgs, axis=0)))
     return out, mask, mu
 
 
@@ -150,52 +167,184 @@ def single_scattering(bsdf, mu: np.ndarray, n: int = 24) -> np.ndarray:
     return np.interp(np.clip(mu, 0.0, 1.0), full, vals)
 
 
+#: Per material (not colour alone, so that the figure reads in grey print): a marker and a line style.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+LINES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 1)), (0, (8, 2)), (0, (3, 1, 3, 4)))
+
+
+def material_key(label: str) -> str:
+    """A result's material: its label without the ``alpha=…`` word."""
+    return " ".join(w for w in label.split() if not w.startswith("alpha=")) or label
+
+
 def furnace_figure(results: list[FurnaceResult], predicted: dict[str, float] | None = None):
-    """Energy lost (%) against α, one colour per material (``label`` up to its ``alpha=…``); materials without
-    a roughness are horizontal lines. ``predicted``: label → the single-scattering loss of a non-transmissive
-    BSDF by quadrature (dashed), the figure's own check."""
+    """Energy lost (%) against α, one marker and line style per material (``label`` up to its ``alpha=…``; legible
+    in grey print); materials without a roughness are horizontal lines. ``predicted``: label → the
+    single-scattering loss of a non-transmissive BSDF by quadrature (hollow markers of the material's shape),
+    the figure's own check."""
     from brdflab.viz.figures import _plt, colours
 
     plt = _plt()
     groups: dict[str, list[FurnaceResult]] = {}
     for r in results:
-        key = " ".join(w for w in r.label.split() if not w.startswith("alpha=")) or r.label
-        groups.setdefault(key, []).append(r)
+        if np.isfinite(r.mean):
+            groups.setdefault(material_key(r.label), []).append(r)
     fig, ax = plt.subplots(figsize=(7.2, 4.6), dpi=100)
     cols = colours(len(groups))
     alphas = sorted({r.alpha for r in results if r.alpha is not None}) or [0.0, 1.0]
-    for c, (key, rs) in zip(cols, groups.items(), strict=True):
+    flat = [key for key, rs in groups.items() if all(r.alpha is None for r in rs)]
+    handles: dict[str, object] = {}
+    for k, (c, (key, rs)) in enumerate(zip(cols, groups.items(), strict=True)):
+        style = {"color": c, "marker": MARKERS[k % len(MARKERS)], "ls": LINES[k % len(LINES)]}
         rs = sorted(rs, key=lambda r: -1.0 if r.alpha is None else r.alpha)
         if all(r.alpha is None for r in rs):
             r = rs[0]
-            ax.axhline(100 * r.loss, color=c, lw=1.2, ls=":")
             ax.fill_between([alphas[0], alphas[-1]], 100 * (r.loss - 2 * r.stderr), 100 * (r.loss + 2 * r.stderr),
-                            color=c, alpha=0.2, label=f"{key}: {100 * r.loss:+.2f} % (± {200 * r.stderr:.2f})")
+                            color=c, alpha=0.15, lw=0)
+            # lossless materials share the line 0: each puts its markers on every len(flat)-th α of its own
+            handles[f"{key}: {100 * r.loss:+.2f} % (± {200 * r.stderr:.2f})"], = ax.plot(
+                alphas, [100 * r.loss] * len(alphas), lw=1.2, ms=6, mfc="white",
+                markevery=(flat.index(key) % len(alphas), max(len(flat), 1)), **style)
             continue
         a = [r.alpha for r in rs]
-        ax.errorbar(a, [100 * r.loss for r in rs], yerr=[200 * r.stderr for r in rs], color=c, marker="o", ms=3.5,
-                    capsize=2, label=key)
+        handles[key] = ax.errorbar(a, [100 * r.loss for r in rs], yerr=[200 * r.stderr for r in rs], ms=4,
+                                   capsize=2, lw=1.3, **style)
         pred = [predicted.get(r.label) for r in rs] if predicted else []
         if pred and all(p is not None for p in pred):
-            ax.plot(a, [100 * p for p in pred], color=c, ls="--", lw=1)
+            ax.plot(a, [100 * p for p in pred], color=c, marker=style["marker"], ms=9, mfc="none", mew=0.9, ls="none")
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel("roughness α")
     ax.set_ylabel("energy lost: 1 − mean radiance of the sphere [%]")
     spp = results[0].spp if results else 0
     ax.set_title(f"White furnace under path tracing (path_mis, {spp} spp, roulette only)", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", title="markers: renders ± 2σ; dashed: one bounce by quadrature",
-              title_fontsize=7)
+    ax.legend(list(handles.values()), list(handles), fontsize=7, loc="upper left", framealpha=0.9,
+              title="filled: renders ± 2σ; hollow: one bounce by quadrature", title_fontsize=7)
     fig.tight_layout()
     return fig
 
 
+def table_rows(results: list[FurnaceResult], predicted: dict[str, float]) -> list[dict]:
+    """One row per sphere: material, α, energy lost by the render (± its standard error), the single-bounce loss
+    by quadrature (non-transmissive BSDFs) and their difference in standard errors; plain strings and numbers
+    (``plot``'s furnace.csv and ``validate``'s table)."""
+    rows = []
+    for r in results:
+        p = predicted.get(r.label)
+        z = (r.loss - p) / r.stderr if p is not None and r.stderr > 0 else None
+        rows.append({"bsdf": r.label, "material": material_key(r.label), "alpha": r.alpha, "mean": r.mean,
+                     "stderr": r.stderr, "loss": r.loss, "single_scattering_loss": p, "z": z, "error": r.error})
+    return rows
+
+
 def predicted_losses(bsdfs: list, results: list[FurnaceResult], mask: np.ndarray, mu: np.ndarray) -> dict:
     """label → 1 − mean over the sphere's pixels of ρ(μ) (:func:`single_scattering`), for the non-transmissive
-    BSDFs; the renders must agree with these within their noise."""
+    BSDFs that rendered; the renders must agree with these within their noise."""
     out = {}
     for bsdf, r in zip(bsdfs, results, strict=True):
-        if getattr(bsdf, "has_transmission", False) or getattr(bsdf, "has_delta", False):
+        if r.error or getattr(bsdf, "has_transmission", False) or getattr(bsdf, "has_delta", False):
             continue
         out[r.label] = 1.0 - float(single_scattering(bsdf, mu[mask]).mean())
     return out
+
+
+def csv_text(results: list[FurnaceResult], predicted: dict[str, float], command: str) -> str:
+    """The furnace's table as CSV (``#`` comment lines first), as ``plot`` and ``validate`` write it."""
+    import csv
+    import io
+
+    f = io.StringIO()
+    f.write(f"# brdflab {command}; white furnace: a unit sphere of each BSDF under a uniform environment of radiance "
+            f"1, path_mis ({results[0].spp if results else 0} spp, {RUNS} independent runs, roulette only, no depth "
+            "cap)\n# mean: mean luminance of the sphere's pixels; loss = 1 - mean; stderr over the runs; "
+            "single_scattering_loss: 1 - mean of the directional albedo by quadrature over the same pixels "
+            "(non-transmissive BSDFs only: one bounce on a convex sphere)\n")
+    w = csv.writer(f)
+    w.writerow(["bsdf", "alpha", "mean", "stderr", "loss", "single_scattering_loss"])
+    for r in table_rows(results, predicted):
+        p = r["single_scattering_loss"]
+        w.writerow([r["bsdf"], "" if r["alpha"] is None else f"{r['alpha']:g}", f"{r['mean']:.6f}",
+                    f"{r['stderr']:.6f}", f"{r['loss']:.6f}", "" if p is None else f"{p:.6f}"])
+    return f.getvalue()
+
+
+#: ``validate --furnace-render``: (image side in pixels, samples per pixel) of each sphere; ``off``: none.
+LEVELS = {"quick": (32, 32), "normal": (64, 64), "full": (128, 256)}
+
+
+@dataclass
+class FurnaceRun:
+    """The white furnace of the BSDFs ``validate`` judged (:func:`battery_furnace`)."""
+
+    results: list[FurnaceResult]
+    predicted: dict[str, float]
+    """label → single-bounce loss by quadrature (non-transmissive BSDFs)."""
+    size: int
+    spp: int
+    seconds: float
+
+    def rows(self) -> list[dict]:
+        """:func:`table_rows` of the run."""
+        return table_rows(self.results, self.predicted)
+
+
+def battery_materials(bsdfs=None, params: dict | None = None, alphas=None, make=None):
+    """(BSDFs, labels, α per BSDF, failures) of ``validate``'s white furnace: every entry the battery judges
+    with the consistency and furnace checks (:func:`brdflab.judges.material.entries.resolve_bsdfs`; built-ins and
+    plugins, delta and transmissive ones included, lobe variants left out) at its furnace parameters, over
+    ``alphas`` (default the battery's furnace α) when it has a roughness. A user's BSDF is checked on every
+    call (a NaN is an error, as in ``plot``); ``failures``: results of the BSDFs whose constructor raised."""
+    from brdflab.builtin_types import is_builtin_class
+    from brdflab.errors import clean
+    from brdflab.judges.core.guard import CheckedBSDF, SceneCheckedBSDF
+    from brdflab.judges.material.entries import FURNACE_ALPHAS, furnace_name, resolve_bsdfs
+
+    params = dict(params or {})
+    objs, labels, alpha_of, failed = [], [], [], []
+    for e in resolve_bsdfs(bsdfs, make):
+        if not e.checks:
+            continue
+        for point in e.grid(params):
+            prm, name = {**params, **point, **e.furnace_params}, furnace_name(e, point)
+            for a in (tuple(alphas or FURNACE_ALPHAS) if e.takes_alpha else (None,)):
+                label = name if a is None else f"{name} alpha={a:g}"
+                try:
+                    b = e.make(a, prm)
+                except Exception as exc:  # noqa: BLE001 - reported in its row
+                    failed.append(FurnaceResult(label, a, float("nan"), float("nan"), 0, np.zeros((0, 0)),
+                                                error=f"{type(exc).__name__}: {clean(str(exc), 200)}"))
+                    continue
+                wrap = not isinstance(b, CheckedBSDF) and not is_builtin_class(type(b))
+                objs.append(SceneCheckedBSDF(b) if wrap else b)
+                labels.append(label)
+                alpha_of.append(a)
+    return objs, labels, alpha_of, failed
+
+
+def battery_furnace(bsdfs=None, params: dict | None = None, level: str = "normal", seed: int = 0,
+                    workers: int | None = None, make=None, progress=None) -> FurnaceRun:
+    """Render the white furnace of the BSDFs ``validate`` judged (:func:`battery_materials`) at ``level``
+    (:data:`LEVELS`): the same numbers as ``plot --views furnace`` gives for the same BSDFs in the same order,
+    ``--size`` the level's side and ``--spp`` its spp / :data:`SPP_FACTOR`."""
+    import time
+
+    size, spp = LEVELS[level]
+    t0 = time.perf_counter()
+    objs, labels, alpha_of, failed = battery_materials(bsdfs, params, None, make)
+    if progress:
+        progress(f"white furnace: {len(objs)} spheres ({size}x{size}, {spp} spp, path_mis)")
+    res, mask, mu = render_furnace(objs, labels, size, spp, seed, workers, catch=True, alphas=alpha_of)
+    try:
+        pred = predicted_losses(objs, res, mask, mu)
+    except Exception as exc:  # noqa: BLE001 - a user's BSDF failing the quadrature: the renders still show
+        pred = {}
+        if progress:
+            progress(f"white furnace: no single-bounce quadrature ({type(exc).__name__})")
+    run = FurnaceRun(res + failed, pred, size, spp, time.perf_counter() - t0)
+    if progress:
+        ok = [r for r in res if not r.error]
+        worst = max(ok, key=lambda r: r.loss, default=None)
+        progress(f"white furnace: {len(ok)} spheres rendered in {run.seconds:.1f} s"
+                 + (f"; most energy lost: {worst.label} {100 * worst.loss:.1f} %" if worst else "")
+                 + (f"; {len(res) + len(failed) - len(ok)} raised" if len(ok) < len(res) + len(failed) else ""))
+    return run

@@ -24,6 +24,7 @@ from brdflab.judges.material import chi2 as c2
 from brdflab.judges.material import consistency, furnace, stability
 from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the module's former contents)
     BSDFS,
+    FURNACE_ALPHAS,
     POINT_WARPS,
     WARPS,
     BSDFEntry,
@@ -33,6 +34,7 @@ from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the mo
     _from_class,
     _from_registry,
     _takes_alpha,
+    furnace_name,
     has_alpha,
     make_named_bsdf,
     resolve_bsdfs,
@@ -40,7 +42,6 @@ from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the mo
 
 ALPHAS = (1e-3, 0.005, 0.05, 0.1, 0.3, 0.5, 1.0)
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
-FURNACE_ALPHAS = (0.05, 0.1, 0.3, 0.5, 1.0)
 FURNACE_THETAS = tuple(float(t) for t in range(0, 90, 5))
 #: Incident angles from inside for the furnace of two-sided (transmissive) BSDFs.
 INSIDE_FURNACE_THETAS = (100.0, 120.0, 150.0, 175.0)
@@ -70,6 +71,9 @@ class Battery:
     agreement: list = field(default_factory=list)
     """:class:`brdflab.judges.estimators.agreement.AgreementResult` per canonical scene and selection rule."""
     agreement_negative: list = field(default_factory=list)
+    white_furnace: object = None
+    """:class:`brdflab.viz.white_furnace.FurnaceRun`: the path-traced white furnace ``validate`` adds for its
+    page (display only: not part of :attr:`passed`)."""
 
     @property
     def passed(self) -> bool:
@@ -358,8 +362,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
     for e in checked_entries:
         for point in e.grid(params):
             prm = {**params, **point, **e.furnace_params}
-            fname = " ".join([e.name, *(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                                       for k, v in {**point, **e.furnace_params}.items())])
+            fname = furnace_name(e, point)
             for a in (furnace_alphas if e.takes_alpha else (None,)):
                 try:
                     e.make(a, prm)

@@ -144,6 +144,16 @@ class BSDFEntry:
         return [dict(zip(axes, vals, strict=True)) for vals in itertools.product(*axes.values())]
 
 
+#: The α of the battery's furnace (albedo) checks and of ``validate``'s path-traced white furnace.
+FURNACE_ALPHAS = (0.05, 0.1, 0.3, 0.5, 1.0)
+
+
+def furnace_name(entry: BSDFEntry, point: dict) -> str:
+    """``roughconductor R0=1``: an entry's name with its sweep point and furnace parameters (the furnace's label)."""
+    return " ".join([entry.name, *(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                   for k, v in {**point, **entry.furnace_params}.items())])
+
+
 def _builtin(name: str) -> BSDFEntry:
     furn = {"diffuse": {"albedo": 1.0}, "roughconductor": {"R0": 1.0}, "roughsubstrate": {"kd": 1.0}}
     return BSDFEntry(name, lambda a, p: make_named_bsdf(name, a, p), takes_alpha=has_alpha(name),
