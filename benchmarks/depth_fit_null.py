@@ -10,7 +10,8 @@ keep every cell's variance and tails but make the cells exactly independent and 
 the fit's t-tests: the measured rate above that is what the real cells add (correlation, skew), at that rate
 it is the rule's own.
 
-Usage: python benchmarks/depth_fit_null.py DIR [--flips 200]
+Usage: python benchmarks/depth_fit_null.py DIR [--flips 20] [--t-test]  (``--t-test``: HC3 and Student's t, the
+p-values before the wild bootstrap, :mod:`brdflab.stats.wild_bootstrap`)
 """
 
 from __future__ import annotations
@@ -32,18 +33,20 @@ from check_power import clopper_pearson  # noqa: E402
 from brdflab.stats import attribution as A  # noqa: E402
 
 
-def trial_fit(z) -> tuple[A.Fit | None, str | None, int]:
-    """The whole-image fit and statement of one cached trial, as ``check_power.where_statement`` makes them."""
+def trial_fit(z, wild: int = A.WILD_DRAWS) -> tuple[A.Fit | None, str | None, int]:
+    """The whole-image fit and statement of one cached trial, as ``check_power.where_statement`` makes them
+    (``wild`` 0: the p-values of HC3 and Student's t instead of the wild bootstrap)."""
     d = z["d"]
     sign = -1 if d.mean() < 0 else 1
-    fit = A.fit_cells(d, [z["direct"], z["indirect"]], ["D", "I"], z["material"] >= 0, A.CELL)
+    fit = A.fit_cells(d, [z["direct"], z["indirect"]], ["D", "I"], z["material"] >= 0, A.CELL, wild=wild)
     return fit, A.depth_finding(fit, sign)[1], sign
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("cache", type=Path)
-    ap.add_argument("--flips", type=int, default=200)
+    ap.add_argument("--flips", type=int, default=20)
+    ap.add_argument("--t-test", action="store_true", help="HC3 t-test p-values instead of the wild bootstrap's")
     args = ap.parse_args()
     files = sorted(args.cache.glob("where_*.npz"), key=lambda p: int(re.findall(r"_(\d+)_\d+x\d+", p.name)[0]))
     if not files:
@@ -53,7 +56,8 @@ def main() -> int:
     pvals, kinds, nominal = [], [], []
     for f in files:
         z = dict(np.load(f))
-        fit, kind, sign = trial_fit(z)
+        wild = 0 if args.t_test else A.WILD_DRAWS
+        fit, kind, sign = trial_fit(z, wild)
         if fit is None:
             continue
         pvals.append(fit.p)
@@ -64,7 +68,7 @@ def main() -> int:
                                                    (lit.shape[1] + A.CELL - 1) // A.CELL))
             flip = np.kron(cells, np.ones((A.CELL, A.CELL)))[: lit.shape[0], : lit.shape[1]]
             z2 = dict(z, d=z["d"] * flip)
-            nominal.append(trial_fit(z2)[1] is not None)
+            nominal.append(trial_fit(z2, wild)[1] is not None)
     p, n = np.array(pvals), len(kinds)
     k = sum(x is not None for x in kinds)
     lo, hi = clopper_pearson(k, n)
