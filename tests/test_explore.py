@@ -124,7 +124,7 @@ def test_explorer_slider_updates_the_plots(tmp_path):
         titles = [t for t, _ in sliders]
         assert any(t.startswith("alpha") for t in titles), titles
         handle = next(h for t, h in sliders if t.startswith("θ_i"))
-        ActionChains(driver).click_and_hold(handle).move_by_offset(-80, 0).release().perform()
+        ActionChains(driver).click_and_hold(handle).move_by_offset(-50, 0).release().perform()
         after = _wait(lambda: (s := driver.execute_script(STATUS_JS)) != before and "peak f" in s and s, 60,
                       "the plots to follow the slider")
         assert "θ_i = 45°" not in after

@@ -218,7 +218,8 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
                 write_exr(out / f"sphere_{k}_{li}.exr", img, comments=f"brdflab plot: {labels[k]} under {light}")
         figures.save(figures.sphere_figure(imgs, labels, sphere.silhouette_radius(o.sphere_size)), out / "sphere")
         cards.append({"key": "sphere", "title": "Lit sphere", "csv": None,
-                      "caption": f"rendered by brdflab (direct_mis): a point light above left of the camera "
+                      "caption": "rendered by brdflab (direct_mis; path_mis for a material that transmits): a "
+                                 "point light above left of the camera "
                                  f"({o.sphere_spp} spp; dashed: the silhouette), and a procedural sky with a sun "
                                  f"({o.sphere_spp * sphere.SPP_FACTOR['environment']} spp); linear images in "
                                  "sphere_<bsdf>_<light>.exr (light 0: point, 1: environment)."})
