@@ -92,3 +92,31 @@ def test_delta_and_transmitting_materials_are_drawn_below_the_horizon():
     assert "reflection only" in g("slice").title.text
     pts = [r for r in g("samples").renderers if "c" in r.data_source.data][0].data_source.data
     assert "#ff7f0e" in pts["c"]  # transmitted samples, drawn in their own colour
+
+
+def test_a_served_burst_waits_for_its_end_but_not_forever():
+    """The changes of a burst that queued behind a running update arrive one by one: with a quiet period the
+    update runs once, after the last of them; a drag longer than ``max_wait_ms`` still updates on its way."""
+    from brdflab.viz.coalesce import Coalescer
+
+    now, pending, ran, stops = [0.0], [], [], []
+    c = Coalescer(lambda: ran.append(now[0]), pending.append, quiet_ms=60, max_wait_ms=1000,
+                  on_request=lambda: stops.append(1), clock=lambda: now[0])
+    for _ in range(10):  # ten changes 50 ms apart: never 60 ms quiet
+        c.request()
+        now[0] += 0.05
+        if pending:  # the timer fires (and re-arms itself while changes arrive)
+            pending.pop()()
+    assert ran == [] and len(stops) == 10
+    now[0] += 0.1
+    pending.pop()()
+    assert ran == [pytest.approx(0.6)] and c.runs == 1 and not c.scheduled
+    for _ in range(30):  # a 1.5 s drag: at most one update on its way after 1 s, then one at its end
+        c.request()
+        now[0] += 0.05
+        if pending:
+            pending.pop()()
+    now[0] += 0.1
+    while pending:
+        pending.pop()()
+    assert c.runs == 3 and ran[1] == pytest.approx(0.6 + 1.0, abs=0.06)

@@ -41,7 +41,7 @@ from html import escape as esc
 
 import numpy as np
 
-from brdflab.viz.coalesce import DEBOUNCE_MS, Coalescer
+from brdflab.viz.coalesce import DEBOUNCE_MS, QUIET_MS, Coalescer
 from brdflab.viz.explorer_views import (
     CONTROLS_W,
     MAX_MATERIALS,
@@ -314,8 +314,7 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
 
     def spheres(mats: list[Material | None]) -> None:
         """The preview sphere now; the refined one in the background, dropped if another update came first."""
-        if state["stop"] is not None:
-            state["stop"].set()
+        stop_refine()
         state["gen"] += 1
         bsdfs = [m.bsdf for m in mats if m is not None]
         numbers = [k + 1 for k, m in enumerate(mats) if m is not None]
@@ -334,13 +333,20 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
 
         background(lambda: sphere_images(bsdfs, REFINED, stop), guarded(done))
 
+    quiet = 0.0
     if schedule is None:  # a served document: after a burst's last change; no server (tests): at once
         served = getattr(doc, "session_context", None) is not None
         schedule = (lambda cb: doc.add_timeout_callback(cb, DEBOUNCE_MS)) if served else (lambda cb: cb())
+        quiet = QUIET_MS if served else 0.0
         if served and background is None:
             background = _threaded(doc)
-    updates = Coalescer(guarded(update), schedule)
-    redraws = Coalescer(guarded(lambda: views_.draw_lobe(number("view_az"), number("view_el"))), schedule)
+
+    def stop_refine() -> None:
+        if state["stop"] is not None:
+            state["stop"].set()  # a change came: the background sphere is stale, free the CPU for the update
+
+    updates = Coalescer(guarded(update), schedule, quiet, on_request=stop_refine)
+    redraws = Coalescer(guarded(lambda: views_.draw_lobe(number("view_az"), number("view_el"))), schedule, quiet)
 
     views_ = Views()
     theta_i, theta_row = slider("theta_i", "θ_i [°]", 0, 89, 1, 45)

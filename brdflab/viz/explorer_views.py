@@ -35,6 +35,8 @@ MAX_MATERIALS = len(COLOURS)
 #: Lit-sphere renders: (size, point-light spp, environment spp), preview while editing and refined after.
 PREVIEW = (48, 2, 8)
 REFINED = (96, 8, 48)
+#: Samples per pixel of one chunk of a background render (between chunks it looks at its stop event).
+CHUNK_SPP = 4
 
 
 @dataclass
@@ -282,10 +284,13 @@ class Views:
         self.slice.title.text = f"θ_h × θ_d of 1: log₁₀ f{note}" if note else "θ_h × θ_d: log₁₀ f (grey: outside)"
 
     def _albedo(self, mats, ti, pi) -> float:
-        key = tuple(m and (m.name, tuple(sorted((k, repr(x)) for k, x in m.values.items()))) for m in mats)
-        if self.state["albedo_key"] != key:
-            self.state["albedo"] = [m and views.albedo([m.bsdf], THETAS, n=4000, seed=0) for m in mats]
-            self.state["albedo_key"] = key
+        keys = [m and (m.name, tuple(sorted((k, repr(x)) for k, x in m.values.items()))) for m in mats]
+        if self.state["albedo_key"] != keys:
+            # per material: editing one of three recomputes one curve (the rough glass's took 2 s)
+            known = dict(zip(self.state["albedo_key"] or [], self.state["albedo"], strict=True))
+            self.state["albedo"] = [m and (known.get(key) or views.albedo([m.bsdf], THETAS, n=4000, seed=0))
+                                    for m, key in zip(mats, keys, strict=True)]
+            self.state["albedo_key"] = keys
             _label(self.albedo_items, mats)
             for k in range(MAX_MATERIALS):
                 if mats[k] is None:
@@ -374,6 +379,17 @@ def sphere_images(bsdfs: list, quality: tuple[int, int, int], stop=None,
             key = (size, integrator_for(b) if paths else "direct_mis")
             with _STAGE_LOCK:  # the scenes of each size and integrator are written and loaded once per process
                 stage = _STAGES.get(key) or _STAGES.setdefault(key, SphereStage(*key))
-            row.append(stage.render(b, light, spp, stop=stop))
+            if stop is None:
+                row.append(stage.render(b, light, spp))
+                continue
+            # in chunks of at most CHUNK_SPP, each its own seed, so that a stop request ends it quickly (the
+            # renderer checks ``stop`` between work units; one unit of the whole sphere took up to a second)
+            chunks = [min(CHUNK_SPP, spp - k) for k in range(0, spp, CHUNK_SPP)]
+            acc = np.zeros((size, size, 3))
+            for seed, n in enumerate(chunks):
+                if stop.is_set():
+                    return None
+                acc += stage.render(b, light, n, seed=seed, stop=stop) * (n / spp)
+            row.append(acc.astype(np.float32))
         out.append(row)
     return None if stop is not None and stop.is_set() else out
