@@ -293,7 +293,7 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
                     raise BrdflabError(f"parameter '{key}': longer than {MAX_TEXT} characters")
                 v = convert_value(kind, text, f"parameter '{key}'") if kind == "color" else text
             values[key] = v
-        shown = " ".join(_shown(k, x) for k, x in values.items())
+        shown = " ".join(_shown(k, x) for k, x in values.items() if not isinstance(x, np.ndarray))  # no colours
         return Material(slot.name, build_bsdf(cls, property_list(slot.name, values, cls=cls)), values,
                         f"{slot.name} {shown}".strip())
 

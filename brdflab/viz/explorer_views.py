@@ -81,13 +81,13 @@ def _legend(items):
 
 
 def _label(items, mats) -> None:
-    """Legend items: "k: label" (at most 46 characters) of the materials shown, the others hidden."""
+    """Legend items: "k: label" (at most 44 characters) of the materials shown, the others hidden."""
     from bokeh.core.properties import value
 
     for k, item in enumerate(items):
         item.visible = mats[k] is not None
         text = f"{k + 1}: {mats[k].label}" if mats[k] is not None else ""
-        item.label = value(text if len(text) <= 46 else text[:45] + "…")
+        item.label = value(text if len(text) <= 44 else text[:43] + "…")
 
 
 class Views:
@@ -158,7 +158,7 @@ class Views:
         self.albedo.xaxis.axis_label, self.albedo.yaxis.axis_label = "θ_i [°]", "ρ(θ_i)"
 
         self.pdf_map = LinearColorMapper(palette="Viridis256", low=0, high=1)
-        self.samples = figure(title=f"{N_SAMPLES} samples over the pdf (ω_o.x, ω_o.y)", frame_width=VIEW_W - 100,
+        self.samples = figure(title=f"{N_SAMPLES} samples on the pdf (ω_o.x, ω_o.y)", frame_width=VIEW_W - 100,
                               frame_height=VIEW_W - 100, x_range=(-1, 1), y_range=(-1, 1), tools=tools,
                               name="samples")
         self.samples.image("image", x=-1, y=-1, dw=2, dh=2, color_mapper=self.pdf_map, source=self.pdf_src)
@@ -179,7 +179,7 @@ class Views:
         from bokeh.layouts import column, row
 
         return row(controls, column(self.polar, self.albedo, self.samples),
-                   column(self.lobe, view_az, view_el, self.sphere), column(self.slice))
+                   column(self.lobe, view_az, view_el, self.slice), column(self.sphere))
 
     # -- the views ------------------------------------------------------------------------------------------
     def update(self, mats: list[Material | None], ti: float, pi: float, phi_d: float, log: bool) -> dict:
@@ -280,7 +280,8 @@ class Views:
         self.mapper.low, self.mapper.high = top - 5, top
         # f = 0 below the colour range (black, as in `brdflab plot`); outside the hemisphere NaN: grey
         self.slice_src.data = {"image": [np.where(np.isfinite(sv[0]), np.nan_to_num(lg, nan=top - 6), np.nan)]}
-        note = " (reflection only)" if reflectance.transmits(m.bsdf) else ""
+        note = (" (delta lobes: f = 0)" if reflectance.all_delta(m.bsdf) else
+                " (reflection only)" if reflectance.transmits(m.bsdf) else "")
         self.slice.title.text = f"θ_h × θ_d of 1: log₁₀ f{note}" if note else "θ_h × θ_d: log₁₀ f (grey: outside)"
 
     def _albedo(self, mats, ti, pi) -> float:
@@ -329,8 +330,8 @@ class Views:
         pd = m.bsdf.pdf(np.ascontiguousarray(wi[:1].repeat(len(wo), 0)), wo).reshape(gx.shape)
         pd = np.where((rho2 < 1) & np.isfinite(pd), pd, 0.0)
         self.pdf_src.data = {"image": [pd / (pd.max() if pd.max() > 0 else 1.0)]}
-        self.samples.title.text = (f"{N_SAMPLES} samples of 1 (ω_o.x, ω_o.y)" +
-                                   ("; orange: below" if below.any() else " over the pdf"))
+        self.samples.title.text = (f"{N_SAMPLES} samples of 1 (orange: below)" if below.any() else
+                                   f"{N_SAMPLES} samples of 1 on its pdf")
         return float(100 * (1 - ok.mean()))
 
     # -- the lit sphere -------------------------------------------------------------------------------------

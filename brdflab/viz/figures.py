@@ -216,8 +216,9 @@ def lobe_figure(lobe: Lobe, labels: list[str], theta_i: float, phi_i: float = 0.
 
 
 def slice_figure(theta_h: np.ndarray, theta_d: np.ndarray, values: np.ndarray, labels: list[str],
-                 phi_d: float = 90.0, decades: int = 7):
-    """θ_h × θ_d image slices at φ_d, log colour scale shared by all panels, with a colour bar."""
+                 phi_d: float = 90.0, decades: int = 7, notes: list | None = None):
+    """θ_h × θ_d image slices at φ_d, log colour scale shared by all panels, with a colour bar; ``notes`` (per BSDF,
+    a text or None) is written across its panel (e.g. why a delta BSDF's panel is black)."""
     import matplotlib
     from matplotlib.colors import LogNorm
 
@@ -239,6 +240,8 @@ def slice_figure(theta_h: np.ndarray, theta_d: np.ndarray, values: np.ndarray, l
         im = ax.imshow(v, origin="lower", extent=(theta_h[0], theta_h[-1], theta_d[0], theta_d[-1]), cmap=cmap,
                        norm=LogNorm(vmin, vmax), aspect="equal", interpolation="nearest")
         ax.set_title(labels[i], fontsize=9)
+        if notes and notes[i]:
+            ax.text(45, 45, wrapped(notes[i], 22), ha="center", va="center", fontsize=9, color="white")
         ax.set_xlabel("θ_h [°]")
         ax.set_ylabel("θ_d [°]")
         ax.set_xticks(range(0, 91, 15))

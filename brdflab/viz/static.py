@@ -178,7 +178,9 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
                                        f"Rusinkiewicz half/difference angles with phi_h = 0 and phi_d = {o.phi_d:g} "
                                        "deg (brdflab.viz.coords); nan: omega_i or omega_o below the horizon"],
                    ["theta_h_deg", "theta_d_deg", *labels], [TH, TD, *(x.ravel() for x in v)])
-        figures.save(figures.slice_figure(th, td, v, labels, o.phi_d), out / "slice")
+        notes = ["delta lobes only: f = 0 here (see the polar view)" if reflectance.all_delta(b) else None
+                 for b in bsdfs]
+        figures.save(figures.slice_figure(th, td, v, labels, o.phi_d, notes=notes), out / "slice")
         cards.append({"key": "slice", "title": f"θ_h × θ_d slice (φ_d = {o.phi_d:g}°)", "csv": "slice.csv",
                       "caption": "Rusinkiewicz's half/difference angles: specular peaks run along small θ_h, "
                                  "Fresnel shows as θ_d → 90°; log colour scale shared by all panels"
