@@ -76,8 +76,8 @@ def test_polar_covers_the_whole_circle_for_transmission():
     assert lb.theta_o_deg[-1] == 180 and lb.values[0][lb.theta_o_deg > 90].max() > 0
 
 
-@pytest.mark.parametrize("alpha", [0.05, 0.3])
-def test_measured_albedo_fixed_rule_matches_the_adaptive_one(alpha):
+@pytest.mark.parametrize(("alpha", "thetas"), [(0.05, (30.0,)), (0.3, (0.0, 60.0, 80.0))])
+def test_measured_albedo_fixed_rule_matches_the_adaptive_one(alpha, thetas):
     """The fixed-order half-vector rule against the adaptive (cos θ_o, φ_o) rule on a smooth table (where the
     adaptive rule converges), and against the model the table was made from (interpolation error only)."""
     from brdflab.bsdf.measured import Measured, tabulate
@@ -85,7 +85,7 @@ def test_measured_albedo_fixed_rule_matches_the_adaptive_one(alpha):
 
     rc = RoughConductor(1.0, alpha)
     m = Measured(table=tabulate(rc))
-    for theta in (0.0, 60.0, 80.0):
+    for theta in thetas:  # (the adaptive rule is slow on a sharp table: one angle there)
         fixed = reflectance.measured_albedo(m, theta)
         assert fixed == pytest.approx(reflectance._adaptive(m, theta, False), abs=3e-4)
         assert fixed == pytest.approx(furnace.albedo_quadrature(rc, theta), abs=1e-2)
