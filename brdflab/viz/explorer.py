@@ -135,8 +135,9 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
 
     ``schedule(callback)`` runs a coalesced update later (:class:`Coalescer`); by default a timeout of
     :data:`DEBOUNCE_MS` on a served document, at once on a document without a server session (tests).
-    ``background(job, done)`` runs the refined lit sphere: ``job(stop)`` in a worker thread, then ``done(result)``
-    on the document's thread; by default a thread on a served document, nothing without a server (tests)."""
+    ``background(job, done)`` runs the refined lit sphere: ``job()`` in a worker thread (it watches its own stop
+    event, set by the next change), then ``done(result)`` on the document's thread; by default a thread on a
+    served document, nothing without a server (tests inject their own)."""
     from bokeh.layouts import column, row
     from bokeh.models import Checkbox, ColorPicker, Div, Select, Slider, TextInput
 
@@ -389,8 +390,8 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
 
 
 def _threaded(doc):
-    """``background(job, done)`` of a served document: ``job(stop)`` in one worker thread per document, its
-    result handed to ``done`` on the document's thread; the thread ends with the session."""
+    """``background(job, done)`` of a served document: ``job()`` in one worker thread per document, its result
+    handed to ``done`` on the document's thread; the thread ends with the session."""
     from concurrent.futures import ThreadPoolExecutor
 
     pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdflab-sphere")
