@@ -32,6 +32,10 @@ return out;
 """
 
 
+MODEL_VALUE_JS = "return Bokeh.documents[0].get_model_by_name(arguments[0]).value"
+SET_JS = "Bokeh.documents[0].get_model_by_name(arguments[0]).value = arguments[1]"
+SPHERE_TITLE_JS = "return Bokeh.documents[0].get_model_by_name('sphere').title.text"
+
 PICKERS_JS = """
 let n = 0;
 const walk = (root) => root.querySelectorAll('*').forEach(e => {
@@ -124,7 +128,7 @@ def test_explorer_slider_updates_the_plots(tmp_path):
         titles = [t for t, _ in sliders]
         assert any(t.startswith("alpha") for t in titles), titles
         handle = next(h for t, h in sliders if t.startswith("θ_i"))
-        ActionChains(driver).click_and_hold(handle).move_by_offset(-80, 0).release().perform()
+        ActionChains(driver).click_and_hold(handle).move_by_offset(-50, 0).release().perform()
         after = _wait(lambda: (s := driver.execute_script(STATUS_JS)) != before and "peak f" in s and s, 60,
                       "the plots to follow the slider")
         assert "θ_i = 45°" not in after
@@ -132,9 +136,16 @@ def test_explorer_slider_updates_the_plots(tmp_path):
         assert 0 <= theta < 45
         time.sleep(0.5)  # let the canvases repaint
         assert driver.get_screenshot_as_png() != shot_before
+        # the live lit sphere: the background render replaces the preview
+        _wait(lambda: "spp" in driver.execute_script(SPHERE_TITLE_JS), 120, "the refined lit sphere")
+        # an overlay, chosen in the page, and a typed value, both round trips through the server
+        driver.execute_script(SET_JS, "bsdf_2", "roughdielectric")
+        _wait(lambda: "· 2: roughdielectric" in driver.execute_script(STATUS_JS), 60, "the overlay")
+        driver.execute_script(SET_JS, "typed_theta_i", "30")
+        _wait(lambda: "θ_i = 30°" in driver.execute_script(STATUS_JS), 60, "the typed θ_i")
+        assert float(driver.execute_script(MODEL_VALUE_JS, "theta_i")) == 30
 
 
-MODEL_VALUE_JS = "return Bokeh.documents[0].get_model_by_name(arguments[0]).value"
 
 
 def test_a_burst_of_40_key_presses_ends_at_the_last_value(tmp_path):

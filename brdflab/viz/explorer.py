@@ -1,15 +1,20 @@
 """``brdflab explore``: the BRDF views live in a browser, on a local Bokeh server (127.0.0.1 only).
 
 One page holds the BSDF choice, sliders for θ_i, φ_i and every parameter of the chosen BSDF (floats and
-integers as sliders, colours as a colour picker beside the linear r,g,b values, booleans, strings), and five
-linked views recomputed by the NumPy core of :mod:`brdflab.viz.views` whenever a widget changes:
+integers as sliders, each with a box to type a value — validated: bad input is a status line, nothing changes —,
+colours as a colour picker beside the linear r,g,b values, booleans, strings), up to two more materials to compare
+with (each with its own parameters), and six linked views (:mod:`brdflab.viz.explorer_views`) recomputed by the
+NumPy core of :mod:`brdflab.viz.views` whenever a widget changes:
 
-* the plane of incidence (f, linear or log) with ω_i and the mirror direction;
-* the 3D lobe f·cos θ_o ω_o as a shaded surface (:mod:`brdflab.viz.lobe3d`), turned by two view sliders;
+* the plane of incidence (f, linear or log) with ω_i and the mirror direction, every material overlaid in its own
+  colour and dash; the whole circle when one transmits; delta lobes as spikes;
+* the 3D lobe f·|cos θ_o| ω_o as a shaded surface (:mod:`brdflab.viz.lobe3d`), turned by two view sliders;
 * the θ_h × θ_d slice at a chosen φ_d (log₁₀ f with a colour bar);
-* the directional albedo against θ_i (quadrature, Monte Carlo ± 2σ), the current θ_i marked;
+* the directional albedo against θ_i (quadrature, Monte Carlo ± 2σ; R and T apart when one transmits), the
+  current θ_i marked;
 * 2000 directions drawn by the BSDF's own ``sample`` over its ``pdf`` (both projected onto the unit disk,
-  (x, y) = (ω_o.x, ω_o.y), as Nori's warptest does), with the fraction of failed samples.
+  (x, y) = (ω_o.x, ω_o.y), as Nori's warptest does), with the fraction of failed samples;
+* the lit spheres of every material (a preview at once, refined in the background: :mod:`brdflab.viz.sphere`).
 
 A status line sums up the current state (peak of f, albedo) — the browser test reads it.
 
@@ -36,17 +41,23 @@ from html import escape as esc
 
 import numpy as np
 
-from brdflab.viz import coords, lobe3d, views
-from brdflab.viz.coalesce import DEBOUNCE_MS, Coalescer
+from brdflab.viz.coalesce import DEBOUNCE_MS, QUIET_MS, Coalescer
+from brdflab.viz.explorer_views import (
+    CONTROLS_W,
+    MAX_MATERIALS,
+    PREVIEW,
+    REFINED,
+    VIEW_W,
+    Material,
+    Views,
+    sphere_images,
+)
 from brdflab.viz.server_safety import _no_tracebacks_to_clients, one_line_logs
 
-#: Albedo curve angles of the explorer (fewer than ``brdflab plot``, so that it stays interactive).
-THETAS = tuple(float(t) for t in range(0, 90, 8))
-N_SAMPLES = 2000
 #: Longest text a string parameter may carry (a client can send anything).
 MAX_TEXT = 200
-#: View widths: controls plus three columns of views fit a 1280-px window.
-CONTROLS_W, VIEW_W = 230, 330
+#: The choice of no material in a "compare with" slot.
+NONE = "(none)"
 _HEX = re.compile(r"#[0-9a-fA-F]{6}")
 log = logging.getLogger(__name__)
 
@@ -109,25 +120,26 @@ def _one_line(exc: BaseException) -> str:
     return text if len(text) <= 160 else text[:157] + "…"
 
 
-def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) -> None:
+class _Slot:
+    """One material's controls: its type choice and a box of parameter widgets (slot 1 is the edited one)."""
+
+    def __init__(self, index: int, select, box) -> None:
+        self.index, self.select, self.box = index, select, box
+        self.prefix = "param_" if index == 1 else f"param{index}_"
+        self.name: str | None = select.value if index == 1 else None
+        self.widgets: dict[str, tuple[str, object]] = {}  # parameter → (kind, widget)
+
+
+def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, background=None) -> None:
     """Build the explorer into a Bokeh document (one per browser tab) offering the types of ``allowed``.
 
     ``schedule(callback)`` runs a coalesced update later (:class:`Coalescer`); by default a timeout of
-    :data:`DEBOUNCE_MS` on a served document, at once on a document without a server session (tests)."""
+    :data:`DEBOUNCE_MS` on a served document, at once on a document without a server session (tests).
+    ``background(job, done)`` runs the refined lit sphere: ``job()`` in a worker thread (it watches its own stop
+    event, set by the next change), then ``done(result)`` on the document's thread; by default a thread on a
+    served document, nothing without a server (tests inject their own)."""
     from bokeh.layouts import column, row
-    from bokeh.models import (
-        Checkbox,
-        ColorBar,
-        ColorPicker,
-        ColumnDataSource,
-        Div,
-        LinearColorMapper,
-        Select,
-        Slider,
-        TextInput,
-        Whisker,
-    )
-    from bokeh.plotting import figure
+    from bokeh.models import Checkbox, ColorPicker, Div, Select, Slider, TextInput
 
     from brdflab.errors import BrdflabError
     from brdflab.plugins import bsdf_parameters, build_bsdf, convert_value, parameter_kinds, property_list
@@ -136,80 +148,14 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
     names = list(allowed)
     start = "roughconductor" if "roughconductor" in names else names[0]
     W = dict(width=CONTROLS_W - 10)
-    select = Select(title="BSDF", value=start, options=names, name="bsdf", **W)
-    theta_i = Slider(title="θ_i [°]", start=0, end=89, step=1, value=45, name="theta_i", **W)
-    phi_i = Slider(title="φ_i [°]", start=0, end=360, step=5, value=0, name="phi_i", **W)
-    phi_d = Slider(title="slice φ_d [°]", start=0, end=180, step=5, value=90, name="phi_d", **W)
-    logscale = Checkbox(label="log scale (polar)", active=True, name="log")
-    view_az = Slider(title="lobe view azimuth [°]", start=-180, end=180, step=5, value=-60, name="view_az",
-                     width=VIEW_W - 10)
-    view_el = Slider(title="lobe view elevation [°]", start=-10, end=90, step=5, value=25, name="view_el",
-                     width=VIEW_W - 10)
+    SW, TW = CONTROLS_W - 86, 66  # a slider and its typed-value box side by side
     status = Div(text="", name="status", width=CONTROLS_W + 3 * VIEW_W)
-    params_box = column(name="params")
-    #: Server-side truth of every numeric widget: key → (widget, low, high, default).
-    numeric: dict[str, tuple[object, float, float, float]] = {
-        "theta_i": (theta_i, 0.0, 89.0, 45.0), "phi_i": (phi_i, 0.0, 360.0, 0.0),
-        "phi_d": (phi_d, 0.0, 180.0, 90.0), "view_az": (view_az, -180.0, 180.0, -60.0),
-        "view_el": (view_el, -10.0, 90.0, 25.0)}
-    widgets: dict[str, tuple[str, object]] = {}  # parameter → (kind, widget)
-    pickers: dict[str, object] = {}
+    state: dict[str, object] = {"syncing": False, "stop": None, "gen": 0}
+    #: Server-side truth of every numeric widget: key → (widget, low, high, default, integer).
+    numeric: dict[str, tuple[object, float, float, float, bool]] = {}
 
-    polar_src = ColumnDataSource({"x": [], "y": []})
-    guide_src = ColumnDataSource({"xs": [], "ys": [], "c": []})
-    lobe_src = ColumnDataSource({"xs": [], "ys": [], "c": []})
-    axes_src = ColumnDataSource({"xs": [], "ys": [], "c": []})
-    slice_src = ColumnDataSource({"image": [np.zeros((2, 2))]})
-    alb_src = ColumnDataSource({"t": [], "q": []})
-    mc_src = ColumnDataSource({"t": [], "m": [], "lo": [], "hi": []})
-    cur_src = ColumnDataSource({"t": [], "q": []})
-    pdf_src = ColumnDataSource({"image": [np.zeros((2, 2))]})
-    pts_src = ColumnDataSource({"x": [], "y": []})
-
-    tools = "pan,wheel_zoom,reset,save"
-    polar = figure(title="plane of incidence (θ_o > 0: away from ω_i)", width=VIEW_W, height=230,
-                   x_range=(-1.05, 1.05), y_range=(-0.02, 1.05), match_aspect=True, tools=tools, name="polar")
-    polar.multi_line("xs", "ys", color="c", source=guide_src, line_dash="dashed")
-    polar.line("x", "y", source=polar_src, line_width=2, color="#1f77b4")
-    polar.xaxis.axis_label = "radius ∝ f (log: decades above 10⁻⁴ max)"
-    lobe = figure(title="3D lobe f·cos θ_o (shaded)", width=VIEW_W, height=300, match_aspect=True,
-                  x_range=(-1.1, 1.1), y_range=(-0.6, 1.1), tools=tools, name="lobe")
-    lobe.patches("xs", "ys", fill_color="c", line_color="c", line_width=0.3, source=lobe_src)
-    lobe.multi_line("xs", "ys", color="c", line_width=2, source=axes_src)
-    lobe.axis.visible = False
-    lobe.grid.visible = False
-    mapper = LinearColorMapper(palette="Magma256", low=-4, high=0, nan_color="#cccccc")
-    sl = figure(title="θ_h × θ_d slice: log₁₀ f (grey: outside)", width=VIEW_W, height=280, x_range=(0, 90),
-                y_range=(0, 90),
-                tools="hover,reset,save", name="slice")
-    sl.image("image", x=0, y=0, dw=90, dh=90, color_mapper=mapper, source=slice_src)
-    sl.add_layout(ColorBar(color_mapper=mapper, width=10), "right")
-    sl.xaxis.axis_label, sl.yaxis.axis_label = "θ_h [°]", "θ_d [°]"
-    alb = figure(title="directional albedo: quadrature, MC ± 2σ", width=VIEW_W, height=230, x_range=(0, 90),
-                 tools="pan,reset,save", name="albedo")
-    alb.line("t", "q", source=alb_src, line_width=2)
-    alb.scatter("t", "m", source=mc_src, size=5, color="#d62728")
-    alb.add_layout(Whisker(source=mc_src, base="t", lower="lo", upper="hi", line_color="#d62728"))
-    alb.scatter("t", "q", source=cur_src, size=11, marker="diamond", color="black")
-    alb.xaxis.axis_label, alb.yaxis.axis_label = "θ_i [°]", "ρ(θ_i)"
-    pdf_map = LinearColorMapper(palette="Viridis256", low=0, high=1)
-    smp = figure(title=f"{N_SAMPLES} samples over the pdf (disk: ω_o.x, ω_o.y)", width=VIEW_W, height=320,
-                 x_range=(-1, 1), y_range=(-1, 1), match_aspect=True, tools=tools, name="samples")
-    smp.image("image", x=-1, y=-1, dw=2, dh=2, color_mapper=pdf_map, source=pdf_src)
-    smp.scatter("x", "y", source=pts_src, size=2.5, color="white", alpha=0.7)
-    smp.add_layout(ColorBar(color_mapper=pdf_map, width=10, title="pdf / max"), "right")
-
-    state: dict[str, object] = {"name": start, "bsdf_key": None, "albedo": None, "lobe": None, "wi": None,
-                                "syncing": False}
-
-    def number(key: str) -> float:
-        """A numeric widget's value, clamped to the server's range (the client may send anything)."""
-        w, lo, hi, default = numeric[key]
-        try:
-            v = float(w.value)
-        except (TypeError, ValueError):
-            return default
-        return min(max(v, lo), hi) if math.isfinite(v) else default
+    def say(text: str) -> None:
+        status.text = f"<b style='color:#cf222e'>{esc(text[:300])}</b>"
 
     def guarded(fn):
         """A widget callback that never raises: an error becomes one escaped status line, no traceback."""
@@ -218,36 +164,62 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
             try:
                 fn(*args)
             except BrdflabError as exc:
-                status.text = f"<b style='color:#cf222e'>{esc(str(exc)[:300])}</b>"
+                say(str(exc))
             except Exception as exc:  # a plugin's own error: say which, keep the traceback on the server
-                log.warning("explore: %s raised", state["name"], exc_info=True)
-                status.text = (f"<b style='color:#cf222e'>{esc(str(state['name']))} raised "
+                log.warning("explore: %s raised", slots[0].name, exc_info=True)
+                status.text = (f"<b style='color:#cf222e'>{esc(str(slots[0].name))} raised "
                                f"{esc(_one_line(exc))}</b>")
         return run
 
-    def current_bsdf():
-        name = state["name"]
-        cls = allowed[name]
-        values = {}
-        for key, (kind, w) in widgets.items():
-            if kind == "boolean":
-                v = bool(w.active) if isinstance(w.active, bool) else False
-            elif kind in ("float", "integer"):
-                v = number(f"param_{key}")
-                v = int(round(v)) if kind == "integer" else v
-            else:  # string and colour texts: length-limited, converted by kind
-                text = w.value if isinstance(w.value, str) else ""
-                if len(text) > MAX_TEXT:
-                    raise BrdflabError(f"parameter '{key}': longer than {MAX_TEXT} characters")
-                v = convert_value(kind, text, f"parameter '{key}'") if kind == "color" else text
-            values[key] = v
-        return build_bsdf(cls, property_list(name, values, cls=cls)), values
+    def number(key: str) -> float:
+        """A numeric widget's value, clamped to the server's range (the client may send anything)."""
+        w, lo, hi, default, _ = numeric[key]
+        try:
+            v = float(w.value)
+        except (TypeError, ValueError):
+            return default
+        return min(max(v, lo), hi) if math.isfinite(v) else default
 
-    def colour_widgets(key: str, default) -> list:
+    def slider(key: str, title: str, lo: float, hi: float, step: float, value: float, integer: bool = False,
+               on_change=None):
+        """A slider with a typed-value box beside it; the box is validated (a clear status line for bad input,
+        nothing changes) and both show the same value."""
+        fmt = "0[.]0000" if step < 0.01 else "0[.]00"
+        w = Slider(title=title, start=lo, end=hi, step=step, value=value, name=key, width=SW, format=fmt)
+        box = TextInput(value=f"{value:g}", name=f"typed_{key}", width=TW, title=" ")
+        numeric[key] = (w, float(lo), float(hi), float(value), integer)
+
+        def typed(attr, old, new) -> None:
+            if state["syncing"]:
+                return
+            text = str(new).strip()[:40]
+            try:
+                v = float(text)
+            except ValueError:
+                v = float("nan")
+            if not (math.isfinite(v) and lo <= v <= hi) or (integer and v != int(v)):
+                kind = "an integer" if integer else "a number"
+                say(f"{title}: type {kind} from {lo:g} to {hi:g} (got '{text}'); nothing changed")
+                return
+            w.value = int(v) if integer else v
+
+        def moved(attr, old, new) -> None:
+            state["syncing"] = True
+            try:
+                box.value = f"{number(key):.6g}"
+            finally:
+                state["syncing"] = False
+
+        w.on_change("value", moved, on_change or updates.on_change)
+        box.on_change("value", guarded(typed))
+        return w, row(w, box)
+
+    def colour_widgets(slot: _Slot, key: str, default) -> list:
         rgb = np.broadcast_to(np.asarray(default, float), (3,))
         text = TextInput(title=f"{key} (linear r,g,b)", value=",".join(f"{x:.4g}" for x in rgb),
-                         name=f"param_{key}", width=CONTROLS_W - 90)
-        picker = ColorPicker(title=" ", color=linear_to_hex(rgb), name=f"pick_{key}", width=70)
+                         name=f"{slot.prefix}{key}", width=CONTROLS_W - 90)
+        pick_name = f"pick_{key}" if slot.index == 1 else f"pick{slot.index}_{key}"
+        picker = ColorPicker(title=" ", color=linear_to_hex(rgb), name=pick_name, width=70)
 
         def picked(attr, old, new) -> None:
             if state["syncing"]:
@@ -258,7 +230,7 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
                 text.value = ",".join(f"{x:.4g}" for x in lin)
             finally:
                 state["syncing"] = False
-            update()
+            updates.request()
 
         def typed(attr, old, new) -> None:
             if state["syncing"]:
@@ -269,162 +241,177 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None) ->
                 picker.color = linear_to_hex(lin)
             finally:
                 state["syncing"] = False
-            update()
+            updates.request()
 
         picker.on_change("color", guarded(picked))
         text.on_change("value", guarded(typed))
-        pickers[key] = picker
-        widgets[key] = ("color", text)
+        slot.widgets[key] = ("color", text)
         return [row(text, picker)]
 
-    def rebuild_params() -> None:
-        name = state["name"]
-        defaults = bsdf_parameters(name, cls=allowed[name])
-        kinds = parameter_kinds(allowed[name])
-        widgets.clear()
-        pickers.clear()
-        for key in [k for k in numeric if k.startswith("param_")]:
+    def rebuild_params(slot: _Slot) -> None:
+        for key in [k for k in numeric if k.startswith(slot.prefix)]:
             del numeric[key]
+        slot.widgets.clear()
+        if slot.name is None:
+            slot.box.children = []
+            return
+        defaults = bsdf_parameters(slot.name, cls=allowed[slot.name])
+        kinds = parameter_kinds(allowed[slot.name])
         children = []
         for key, default in defaults.items():
             kind = kinds[key]
             if kind == "color":
-                children += colour_widgets(key, default)
+                children += colour_widgets(slot, key, default)
                 continue
             if kind in ("float", "integer"):
                 lo, hi, step = _range(key, kind, default)
-                v = min(max(float(default), lo), hi)
-                w = Slider(title=key, start=lo, end=hi, step=step, value=v, name=f"param_{key}",
-                           width=CONTROLS_W - 10)
-                numeric[f"param_{key}"] = (w, float(lo), float(hi), v)
-                w.on_change("value", updates.on_change)
+                w, box = slider(f"{slot.prefix}{key}", key, lo, hi, step, min(max(float(default), lo), hi),
+                                kind == "integer")
+                children.append(box)
             elif kind == "boolean":
-                w = Checkbox(label=key, active=bool(default), name=f"param_{key}")
+                w = Checkbox(label=key, active=bool(default), name=f"{slot.prefix}{key}")
                 w.on_change("active", updates.on_change)
+                children.append(w)
             else:
-                w = TextInput(title=key, value=str(default)[:MAX_TEXT], name=f"param_{key}", width=CONTROLS_W - 10)
+                w = TextInput(title=key, value=str(default)[:MAX_TEXT], name=f"{slot.prefix}{key}", **W)
                 w.on_change("value", updates.on_change)
-            widgets[key] = (kind, w)
-            children.append(w)
-        params_box.children = children
+                children.append(w)
+            slot.widgets[key] = (kind, w)
+        slot.box.children = children
 
-    def draw_lobe() -> None:
-        pts, wi = state["lobe"], state["wi"]
-        if pts is None:
-            return
-        az, el = number("view_az"), number("view_el")
-        pl = lobe3d.project(pts, az, el)
-        lobe_src.data = {"xs": pl.xs.tolist(), "ys": pl.ys.tolist(), "c": lobe3d.shade_colours(pl.shade)}
-        ex, ey, _ = lobe3d.view_axes(az, el)
-        circle = np.stack([np.cos(np.linspace(0, 2 * np.pi, 73)), np.sin(np.linspace(0, 2 * np.pi, 73)),
-                           np.zeros(73)], axis=1)
-        n = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-        w = np.array([[0.0, 0.0, 0.0], wi])
-        axes_src.data = {"xs": [(circle @ ex).tolist(), (n @ ex).tolist(), (w @ ex).tolist()],
-                         "ys": [(circle @ ey).tolist(), (n @ ey).tolist(), (w @ ey).tolist()],
-                         "c": ["#bbbbbb", "#777777", "black"]}
+    def material(slot: _Slot) -> Material:
+        cls = allowed[slot.name]
+        values = {}
+        for key, (kind, w) in slot.widgets.items():
+            if kind == "boolean":
+                v = bool(w.active) if isinstance(w.active, bool) else False
+            elif kind in ("float", "integer"):
+                v = number(f"{slot.prefix}{key}")
+                v = int(round(v)) if kind == "integer" else v
+            else:  # string and colour texts: length-limited, converted by kind
+                text = w.value if isinstance(w.value, str) else ""
+                if len(text) > MAX_TEXT:
+                    raise BrdflabError(f"parameter '{key}': longer than {MAX_TEXT} characters")
+                v = convert_value(kind, text, f"parameter '{key}'") if kind == "color" else text
+            values[key] = v
+        shown = " ".join(_shown(k, x) for k, x in values.items() if not isinstance(x, np.ndarray))  # no colours
+        return Material(slot.name, build_bsdf(cls, property_list(slot.name, values, cls=cls)), values,
+                        f"{slot.name} {shown}".strip())
 
     def update() -> None:
-        bsdf, values = current_bsdf()
-        name = state["name"]
+        mats = [material(s) if s.name is not None else None for s in slots]
         ti, pi = number("theta_i"), number("phi_i")
-        # Plane of incidence.
-        t, v = views.polar([bsdf], ti, pi, n=361)
-        f = v[0]
-        wo_plane = coords.plane_directions(t, pi)
-        raw = bsdf.eval(np.ascontiguousarray(np.broadcast_to(coords.incident(ti, pi), wo_plane.shape)), wo_plane)
-        if not np.all(np.isfinite(raw)):
-            raise BrdflabError(f"{name}: eval returned NaN or infinity in the plane of incidence "
-                               f"(θ_i = {ti:g}°); nothing drawn")
-        fmax = float(f.max()) if f.max() > 0 else 1.0
-        if logscale.active:
-            r = np.clip(np.log10(np.maximum(f, 1e-300) / fmax) + 4.0, 0.0, None) / 4.0
-        else:
-            r = f / fmax
-        tr = np.radians(t)
-        polar_src.data = {"x": (r * np.sin(tr)).tolist(), "y": (r * np.cos(tr)).tolist()}
-        a = math.radians(ti)
-        guide_src.data = {"xs": [[0, -math.sin(a)], [0, math.sin(a)]], "ys": [[0, math.cos(a)], [0, math.cos(a)]],
-                          "c": ["#777777", "black"]}
-        # Lobe: the surface once per material/angle change; the view sliders only re-project it.
-        lb = views.lobe([bsdf], ti, pi, n_theta=31, n_phi=61)
-        state["lobe"] = lobe3d.surface(lb.directions, lb.values[0] * np.cos(np.radians(lb.theta_o_deg))[:, None])
-        wi = coords.incident(ti, pi)
-        state["wi"] = wi
-        draw_lobe()
-        # Slice.
-        _, _, sv = views.half_diff_slice([bsdf], number("phi_d"), n=72)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lg = np.log10(np.where(np.isfinite(sv[0]) & (sv[0] > 0), sv[0], np.nan))
-        top = float(np.nanmax(lg)) if np.isfinite(lg).any() else 0.0
-        mapper.low, mapper.high = top - 5, top
-        # f = 0 below the colour range (black, as in `brdflab plot`); outside the hemisphere NaN: grey
-        slice_src.data = {"image": [np.where(np.isfinite(sv[0]), np.nan_to_num(lg, nan=top - 6), np.nan)]}
-        # Albedo (only when the material changed).
-        key = (name, tuple(sorted((k, repr(x)) for k, x in values.items())))
-        if state["bsdf_key"] != key:
-            state["albedo"] = views.albedo([bsdf], THETAS, n=4000, seed=0)
-            state["bsdf_key"] = key
-            al = state["albedo"]
-            alb_src.data = {"t": list(al.theta_deg), "q": al.quadrature[0].tolist()}
-            mc_src.data = {"t": list(al.theta_deg), "m": al.monte_carlo[0].tolist(),
-                           "lo": (al.monte_carlo[0] - 2 * al.mc_stderr[0]).tolist(),
-                           "hi": (al.monte_carlo[0] + 2 * al.mc_stderr[0]).tolist()}
-        rho = float(views.albedo_quadrature(bsdf, ti)) if pi == 0 else float("nan")
-        cur_src.data = {"t": [ti], "q": [rho if np.isfinite(rho) else float(np.interp(ti, THETAS,
-                                                                                          state["albedo"].quadrature[0]))]}
-        # Samples over the pdf.
-        rng = np.random.default_rng(19)
-        wiv = np.ascontiguousarray(np.broadcast_to(wi, (N_SAMPLES, 3)))
-        smp_out = bsdf.sample(wiv, rng.random((N_SAMPLES, 3)))
-        ok = smp_out.pdf > 0
-        pts_src.data = {"x": smp_out.wo[ok, 0].tolist(), "y": smp_out.wo[ok, 1].tolist()}
-        g = np.linspace(-1, 1, 81)
-        GX, GY = np.meshgrid(g, g)
-        rho2 = GX**2 + GY**2
-        inside = rho2 < 1
-        wo = np.stack([GX.ravel(), GY.ravel(), np.sqrt(np.clip(1 - rho2.ravel(), 0, 1))], axis=1)
-        pd = bsdf.pdf(np.ascontiguousarray(np.broadcast_to(wi, wo.shape)), wo).reshape(GX.shape)
-        pd = np.where(inside & np.isfinite(pd), pd, 0.0)
-        pdf_src.data = {"image": [pd / (pd.max() if pd.max() > 0 else 1.0)]}
-        peak = float(t[np.argmax(f)])
-        shown = ", ".join(_shown(k, x) for k, x in values.items())
-        failed = 100 * (1 - ok.mean())
-        status.text = (f"<b>{esc(name)}</b> {esc(shown)} — θ_i = {ti:g}°, φ_i = {pi:g}°: peak f = "
-                       f"<span id='peak'>{fmax:.4g}</span> at θ_o = {peak:+.1f}°; ρ(θ_i) = {cur_src.data['q'][0]:.4f}; "
-                       f"{failed:.1f} % samples failed<span id='updates' hidden>{updates.runs}</span>")
+        out = views_.update(mats, ti, pi, number("phi_d"), bool(logscale.active))
+        views_.draw_lobe(number("view_az"), number("view_el"))
+        spheres(mats)
+        first = mats[0]
+        shown = ", ".join(_shown(k, x) for k, x in first.values.items())
+        others = "".join(f" · {k + 1}: {esc(m.label)}" for k, m in enumerate(mats) if k and m is not None)
+        peak = ("delta lobes only" if out["delta"] else
+                f"peak f = <span id='peak'>{out['fmax']:.4g}</span> at θ_o = {out['peak']:+.1f}°")
+        status.text = (f"<b>{esc(first.name)}</b> {esc(shown)} — θ_i = {ti:g}°, φ_i = {pi:g}°: {peak}; ρ(θ_i) = "
+                       f"{out['rho']:.4f}; {out['failed']:.1f} % samples failed{others}"
+                       f"<span id='updates' hidden>{updates.runs}</span>")
 
+    def spheres(mats: list[Material | None]) -> None:
+        """The preview sphere now; the refined one in the background, dropped if another update came first."""
+        stop_refine()
+        state["gen"] += 1
+        bsdfs = [m.bsdf for m in mats if m is not None]
+        numbers = [k + 1 for k, m in enumerate(mats) if m is not None]
+        views_.show_spheres(sphere_images(bsdfs, PREVIEW, paths=False), numbers,
+                            "preview (refining…)" if background else "preview, direct light")
+        if background is None:
+            return
+        import threading
+
+        gen, stop = state["gen"], threading.Event()
+        state["stop"] = stop
+
+        def done(images) -> None:
+            if images is not None and gen == state["gen"]:
+                views_.show_spheres(images, numbers, f"{REFINED[1]} / {REFINED[2]} spp")
+
+        background(lambda: sphere_images(bsdfs, REFINED, stop), guarded(done))
+
+    quiet = 0.0
     if schedule is None:  # a served document: after a burst's last change; no server (tests): at once
         served = getattr(doc, "session_context", None) is not None
         schedule = (lambda cb: doc.add_timeout_callback(cb, DEBOUNCE_MS)) if served else (lambda cb: cb())
-    updates = Coalescer(guarded(update), schedule)
-    redraws = Coalescer(guarded(draw_lobe), schedule)
+        quiet = QUIET_MS if served else 0.0
+        if served and background is None:
+            background = _threaded(doc)
 
-    def on_bsdf(attr, old, new) -> None:
-        if new == state["name"]:
+    def stop_refine() -> None:
+        if state["stop"] is not None:
+            state["stop"].set()  # a change came: the background sphere is stale, free the CPU for the update
+
+    updates = Coalescer(guarded(update), schedule, quiet, on_request=stop_refine)
+    redraws = Coalescer(guarded(lambda: views_.draw_lobe(number("view_az"), number("view_el"))), schedule, quiet)
+
+    views_ = Views()
+    theta_i, theta_row = slider("theta_i", "θ_i [°]", 0, 89, 1, 45)
+    phi_i, phi_row = slider("phi_i", "φ_i [°]", 0, 360, 5, 0)
+    phi_d, phi_d_row = slider("phi_d", "slice φ_d [°]", 0, 180, 5, 90)
+    view_az, _ = slider("view_az", "lobe view azimuth [°]", -180, 180, 5, -60, on_change=redraws.on_change)
+    view_el, _ = slider("view_el", "lobe view elevation [°]", -10, 90, 5, 25, on_change=redraws.on_change)
+    view_az.width = view_el.width = VIEW_W - 10
+    logscale = Checkbox(label="log scale (polar)", active=True, name="log")
+    logscale.on_change("active", updates.on_change)
+    slots = [_Slot(1, Select(title="BSDF 1 (edited)", value=start, options=names, name="bsdf", **W),
+                   column(name="params"))]
+    slots += [_Slot(k, Select(title=f"compare with {k}", value=NONE, options=[NONE, *names], name=f"bsdf_{k}", **W),
+                    column(name=f"params_{k}")) for k in range(2, MAX_MATERIALS + 1)]
+
+    def chose(slot: _Slot, attr, old, new) -> None:
+        current = slot.name if slot.name is not None else NONE
+        if new == current:
             return
-        if not isinstance(new, str) or new not in allowed:  # a forged choice: refuse, restore, resolve nothing
-            select.options = names
-            select.value = state["name"]
+        if not isinstance(new, str) or (new not in allowed and not (slot.index > 1 and new == NONE)):
+            # a forged choice: refuse, restore, resolve nothing
+            slot.select.options = names if slot.index == 1 else [NONE, *names]
+            slot.select.value = current
             status.text = (f"<b style='color:#cf222e'>refused: '{esc(str(new)[:60])}' is not one of the BSDF "
                            "types this explorer was started with</b>")
             return
-        state["name"] = new
-        rebuild_params()
+        slot.name = None if new == NONE else new
+        rebuild_params(slot)
         updates.request()
 
-    select.on_change("value", guarded(on_bsdf))
-    for w in (theta_i, phi_i, phi_d):
-        w.on_change("value", updates.on_change)
-    for w in (view_az, view_el):
-        w.on_change("value", redraws.on_change)
-    logscale.on_change("active", updates.on_change)
-    guarded(rebuild_params)()
+    for s in slots:
+        s.select.on_change("value", guarded(functools.partial(chose, s)))
+        guarded(rebuild_params)(s)
     guarded(update)()
-    controls = column(Div(text="<h3 style='margin:4px 0'>brdflab explore</h3>"), select, theta_i, phi_i, phi_d,
-                      logscale, Div(text="<b>parameters</b>"), params_box, width=CONTROLS_W)
-    doc.add_root(column(status, row(controls, column(polar, alb, smp), column(lobe, view_az, view_el), column(sl))))
+    controls = column(Div(text="<h3 style='margin:4px 0'>brdflab explore</h3>"), slots[0].select, theta_row,
+                      phi_row, phi_d_row, logscale, Div(text="<b>parameters of 1</b>"), slots[0].box,
+                      *(c for s in slots[1:] for c in (s.select, s.box)), width=CONTROLS_W)
+    doc.add_root(column(status, views_.layout(controls, view_az, view_el)))
     doc.title = "brdflab explore"
+
+
+def _threaded(doc):
+    """``background(job, done)`` of a served document: ``job()`` in one worker thread per document, its result
+    handed to ``done`` on the document's thread; the thread ends with the session."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdflab-sphere")
+
+    def run(job, done) -> None:
+        def finished(fut) -> None:
+            try:
+                result = fut.result()
+            except Exception as exc:  # a plugin raising inside the render: one line in the log
+                log.warning("explore: the lit sphere's render raised %s", _one_line(exc))
+                return
+            try:
+                doc.add_next_tick_callback(lambda: done(result))
+            except Exception:  # the session is gone
+                pass
+
+        pool.submit(job).add_done_callback(finished)
+
+    doc.on_session_destroyed(lambda ctx: pool.shutdown(wait=False, cancel_futures=True))
+    return run
 
 
 def _shown(key: str, value) -> str:

@@ -1,4 +1,5 @@
-"""Lit spheres: a sphere of the material rendered by brdflab's own integrator (``direct_mis``).
+"""Lit spheres: a sphere of the material rendered by brdflab's own integrator (``direct_mis``; ``path_mis`` for
+a material that transmits, whose light passes two refractions).
 
 Two tiny Nori scenes are written into a temporary folder (a unit sphere seen from +z, 30° field of
 view): one lit by a point light above the camera to the upper left (on black; the plots outline the
@@ -66,7 +67,15 @@ def sky_map(width: int = 128, height: int = 1024) -> np.ndarray:
     return sky.astype(np.float32)
 
 
-def write_scenes(folder: Path, size: int = 128, spp: int = 16) -> dict[str, Path]:
+def integrator_for(bsdf) -> str:
+    """``direct_mis`` (one bounce: all a convex sphere of an opaque material needs), or ``path_mis`` for a BSDF
+    that transmits (the light seen through a glass sphere is refracted twice)."""
+    from brdflab.viz.reflectance import transmits
+
+    return "path_mis" if transmits(bsdf) else "direct_mis"
+
+
+def write_scenes(folder: Path, size: int = 128, spp: int = 16, integrator: str = "direct_mis") -> dict[str, Path]:
     """Write the sphere, the sky and one scene per light into ``folder``; return light → scene path."""
     v, f, n, uv = uv_sphere(n_theta=48, n_phi=96)
     write_obj(folder / "sphere.obj", v, f, n, uv)
@@ -75,7 +84,7 @@ def write_scenes(folder: Path, size: int = 128, spp: int = 16) -> dict[str, Path
     for i, light in enumerate(LIGHTS):
         path = folder / f"sphere_{i}.xml"
         path.write_text(
-            "<scene>\n  <integrator type=\"direct_mis\"/>\n"
+            f"<scene>\n  <integrator type=\"{integrator}\"/>\n"
             f"  <sampler type=\"independent\"><integer name=\"sampleCount\" value=\"{spp * SPP_FACTOR[light]}\"/>"
             "</sampler>\n  "
             + _CAMERA.format(size=size, distance=DISTANCE, fov=FOV)
@@ -85,22 +94,43 @@ def write_scenes(folder: Path, size: int = 128, spp: int = 16) -> dict[str, Path
     return out
 
 
+class SphereStage:
+    """The lit-sphere scenes of one size, written and loaded once, rendered for any BSDF (the explorer's live
+    sphere re-renders on every change: loading the sky's sampling tables each time took longer than a small
+    render). :meth:`render` swaps the BSDF in, drops the scene's per-material tables and renders in this
+    process; a lock serialises renders of the same stage (the scenes are shared)."""
+
+    def __init__(self, size: int = 128, integrator: str = "direct_mis") -> None:
+        import threading
+
+        from brdflab.scene.loader import load_scene
+
+        self.size = size
+        self._tmp = tempfile.TemporaryDirectory(prefix="brdflab-sphere-")
+        self.scenes = {light: load_scene(path) for light, path in
+                       write_scenes(Path(self._tmp.name), size, integrator=integrator).items()}
+        self.lock = threading.Lock()
+
+    def render(self, bsdf, light: str, spp: int, seed: int = 0, workers: int | None = 1, stop=None) -> np.ndarray:
+        """(size, size, 3) float32 image of a sphere of ``bsdf`` under ``light`` at ``spp`` samples per pixel;
+        ``stop`` (a :class:`threading.Event`) ends it early (the image then holds the completed passes)."""
+        from brdflab.renderer import render
+
+        with self.lock:
+            scene = self.scenes[light]
+            scene.bsdfs[0] = bsdf
+            for cached in ("_tables", "_area_light_set"):  # built from the previous material
+                scene.__dict__.pop(cached, None)
+            img, _ = render(scene, spp=spp, seed=seed, workers=workers, stop=stop)
+        return img
+
+
 def render_spheres(bsdfs: list, size: int = 128, spp: int = 16, seed: int = 0,
                    workers: int | None = None) -> dict[str, list[np.ndarray]]:
     """Render a sphere of each BSDF under each light; returns light → [(size, size, 3) float32 per BSDF].
 
     ``spp`` is the point light's sample count; the environment gets :data:`SPP_FACTOR` times as many.
     """
-    from brdflab.renderer import render
-    from brdflab.scene.loader import load_scene
-
-    images: dict[str, list[np.ndarray]] = {light: [] for light in LIGHTS}
-    with tempfile.TemporaryDirectory(prefix="brdflab-sphere-") as tmp:
-        scenes = write_scenes(Path(tmp), size, spp)
-        for light, path in scenes.items():
-            for bsdf in bsdfs:
-                scene = load_scene(path)
-                scene.bsdfs[0] = bsdf
-                img, _ = render(scene, spp=spp * SPP_FACTOR[light], seed=seed, workers=workers)
-                images[light].append(img)
-    return images
+    stages = {name: SphereStage(size, name) for name in sorted({integrator_for(b) for b in bsdfs})}
+    return {light: [stages[integrator_for(b)].render(b, light, spp * SPP_FACTOR[light], seed, workers) for b in bsdfs]
+            for light in LIGHTS}

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BrdflabError, clean
-from brdflab.viz import coords, figures, views
+from brdflab.viz import coords, figures, reflectance, views
 
 VIEWS = ("polar", "lobe", "slice", "albedo", "sphere", "furnace")
 #: The views drawn unless others are asked for (the furnace renders a path-traced sphere per BSDF: on request).
@@ -144,27 +144,32 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
     if "polar" in o.views:
         say("polar plot of the plane of incidence")
         t, v = views.polar(bsdfs, o.theta)
+        deltas = [reflectance.delta_lobes(b, o.theta) if reflectance.all_delta(b) else None for b in bsdfs]
         _write_csv(out / "polar.csv", [*head, VALUE_NOTE, POLAR_NOTE], ["theta_o_deg", "cos_theta_o", *labels],
                    [t, np.cos(np.radians(t)), *v])
-        figures.save(figures.polar_figure(t, v, labels, o.theta, o.times_cos), out / "polar")
-        peak = [float(t[np.argmax(x)]) for x in v]
+        figures.save(figures.polar_figure(t, v, labels, o.theta, o.times_cos, deltas=deltas), out / "polar")
+        peak = [float(t[np.argmax(x)]) for x, d in zip(v, deltas, strict=True) if d is None]
         cards.append({"key": "polar", "title": "Plane of incidence",
                       "caption": ("f·cos θ_o" if o.times_cos else "f") + " against the signed θ_o, linear and log; "
-                      "dashed: the mirror direction, arrow: ω_i. Peak at θ_o = "
-                      + ", ".join(f"{p:+.2f}°" for p in peak) + ".", "csv": "polar.csv"})
+                      "dashed: the mirror direction, arrow: ω_i"
+                      + (", the whole circle: the transmitted half below the horizon" if abs(t[0]) > 90 else "")
+                      + (". Peak at θ_o = " + ", ".join(f"{p:+.2f}°" for p in peak) if peak else "")
+                      + (". Delta lobes (f is a Dirac delta, 0 in the CSV): spikes of length ∝ their energy "
+                         "R or T" if any(d is not None for d in deltas) else "") + ".", "csv": "polar.csv"})
     if "lobe" in o.views:
         say("3D lobe")
         lb = views.lobe(bsdfs, o.theta)
         T, P = np.meshgrid(lb.theta_o_deg, lb.phi_o_deg, indexing="ij")
         d = lb.directions.reshape(-1, 3)
         _write_csv(out / "lobe.csv", [*head, VALUE_NOTE, "grid of the upper hemisphere: theta_o from the normal, "
-                                      "phi_o from +x; x, y, z = omega_o; the plotted radius is value * z"],
+                                      "phi_o from +x; x, y, z = omega_o; the plotted radius is value * |z|"],
                    ["theta_o_deg", "phi_o_deg", "x", "y", "z", *labels], [T, P, d[:, 0], d[:, 1], d[:, 2],
                                                                        *(x.ravel() for x in lb.values)])
-        figures.save(figures.lobe_figure(lb, labels, o.theta), out / "lobe")
+        figures.save(figures.lobe_figure(lb, labels, o.theta, deltas=[
+            reflectance.delta_lobes(b, o.theta) if reflectance.all_delta(b) else None for b in bsdfs]), out / "lobe")
         cards.append({"key": "lobe", "title": "3D lobe", "csv": "lobe.csv",
-                      "caption": "the surface f·cos θ_o · ω_o over the hemisphere (the shape of the reflected "
-                                 "radiance for light from ω_i)."})
+                      "caption": "the surface f·|cos θ_o| · ω_o over the hemisphere (the whole sphere when a BSDF "
+                                 "transmits): the shape of the scattered radiance for light from ω_i."})
     if "slice" in o.views:
         say(f"half/difference slice at phi_d = {o.phi_d:g}")
         th, td, v = views.half_diff_slice(bsdfs, o.phi_d)
@@ -173,10 +178,14 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
                                        f"Rusinkiewicz half/difference angles with phi_h = 0 and phi_d = {o.phi_d:g} "
                                        "deg (brdflab.viz.coords); nan: omega_i or omega_o below the horizon"],
                    ["theta_h_deg", "theta_d_deg", *labels], [TH, TD, *(x.ravel() for x in v)])
-        figures.save(figures.slice_figure(th, td, v, labels, o.phi_d), out / "slice")
+        notes = ["delta lobes only: f = 0 here (see the polar view)" if reflectance.all_delta(b) else None
+                 for b in bsdfs]
+        figures.save(figures.slice_figure(th, td, v, labels, o.phi_d, notes=notes), out / "slice")
         cards.append({"key": "slice", "title": f"θ_h × θ_d slice (φ_d = {o.phi_d:g}°)", "csv": "slice.csv",
                       "caption": "Rusinkiewicz's half/difference angles: specular peaks run along small θ_h, "
-                                 "Fresnel shows as θ_d → 90°; log colour scale shared by all panels."})
+                                 "Fresnel shows as θ_d → 90°; log colour scale shared by all panels"
+                                 + ("; reflection only (the half vector of a transmitted pair is another one)"
+                                    if any(reflectance.transmits(b) for b in bsdfs) else "") + "."})
     if "albedo" in o.views:
         say(f"directional albedo (quadrature and {o.samples} Monte Carlo samples per angle)")
         alb = views.albedo(bsdfs, n=o.samples, seed=o.seed)
@@ -184,10 +193,16 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
         for k, lab in enumerate(labels):
             cols += [alb.quadrature[k], alb.monte_carlo[k], alb.mc_stderr[k]]
             names += [f"{lab} quadrature", f"{lab} monte_carlo", f"{lab} mc_stderr"]
+            if alb.any_transmission:
+                cols += [alb.reflected[k], alb.transmitted[k], alb.mc_parts[k, :, 0, 0], alb.mc_parts[k, :, 1, 0]]
+                names += [f"{lab} R quadrature", f"{lab} T quadrature", f"{lab} R monte_carlo",
+                          f"{lab} T monte_carlo"]
         _write_csv(out / "albedo.csv", [f"brdflab plot; BSDFs: {'; '.join(labels)}",
                                         "directional albedo rho(theta_i) = integral of f cos theta_o over the "
                                         "hemisphere (luminance Y), phi_i = 0; quadrature, and Monte Carlo mean of "
-                                        f"the BSDF's sample weights with its standard error ({alb.samples} samples)"],
+                                        f"the BSDF's sample weights with its standard error ({alb.samples} samples); "
+                                        "a transmitting BSDF: R + T, T = integral of f |cos theta_o| (eta_o/eta_i)^2 "
+                                        "below the surface (energy)"],
                    names, cols)
         figures.save(figures.albedo_figure(alb, labels), out / "albedo")
         worst = float(np.max(np.abs(alb.quadrature - alb.monte_carlo) / np.maximum(alb.mc_stderr, 1e-12)))
@@ -205,7 +220,8 @@ def _write_all(bsdfs: list, labels: list[str], out: Path, o: PlotOptions, say) -
                 write_exr(out / f"sphere_{k}_{li}.exr", img, comments=f"brdflab plot: {labels[k]} under {light}")
         figures.save(figures.sphere_figure(imgs, labels, sphere.silhouette_radius(o.sphere_size)), out / "sphere")
         cards.append({"key": "sphere", "title": "Lit sphere", "csv": None,
-                      "caption": f"rendered by brdflab (direct_mis): a point light above left of the camera "
+                      "caption": "rendered by brdflab (direct_mis; path_mis for a material that transmits): a "
+                                 "point light above left of the camera "
                                  f"({o.sphere_spp} spp; dashed: the silhouette), and a procedural sky with a sun "
                                  f"({o.sphere_spp * sphere.SPP_FACTOR['environment']} spp); linear images in "
                                  "sphere_<bsdf>_<light>.exr (light 0: point, 1: environment)."})

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from brdflab.texture import LUMINANCE
-from brdflab.viz import coords
+from brdflab.viz import coords, reflectance
 
 #: Incident angles (degrees) of the directional-albedo curves.
 ALBEDO_THETAS = tuple(float(t) for t in range(0, 90, 4))
@@ -30,9 +30,17 @@ def eval_luminance(bsdf, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(y), y, 0.0)
 
 
-def polar(bsdfs: list, theta_i: float, phi_i: float = 0.0, n: int = 721) -> tuple[np.ndarray, np.ndarray]:
-    """f in the plane of incidence: (θ_o in degrees (n,), values (K, n)), θ_o signed from −90° to 90°."""
-    theta_o = np.linspace(-90.0, 90.0, n)
+def polar(bsdfs: list, theta_i: float, phi_i: float = 0.0, n: int = 721,
+          full: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """f in the plane of incidence: (θ_o in degrees (n,), values (K, n)), θ_o signed from −90° to 90°.
+
+    ``full`` (default: when some BSDF transmits): the whole circle, θ_o from −180° to 180° (|θ_o| > 90°: below
+    the surface; a ray refracted at θ_t leaves at θ_o = 180° − θ_t, the undeflected one at 180° − θ_i), with
+    ``2n − 1`` points so that the upper half keeps its resolution.
+    """
+    if full is None:
+        full = any(reflectance.transmits(b) for b in bsdfs)
+    theta_o = np.linspace(-180.0, 180.0, 2 * n - 1) if full else np.linspace(-90.0, 90.0, n)
     wo = coords.plane_directions(theta_o, phi_i)
     wi = coords.incident(theta_i, phi_i)
     return theta_o, np.array([eval_luminance(b, wi, wo) for b in bsdfs])
@@ -40,7 +48,7 @@ def polar(bsdfs: list, theta_i: float, phi_i: float = 0.0, n: int = 721) -> tupl
 
 @dataclass
 class Lobe:
-    """f over the upper hemisphere for one incidence: a (θ_o, φ_o) grid and its directions."""
+    """f over the upper hemisphere (or the whole sphere) for one incidence: a (θ_o, φ_o) grid and its directions."""
 
     theta_o_deg: np.ndarray
     """(T,) polar angles of the grid."""
@@ -52,9 +60,13 @@ class Lobe:
     """(K, T, P) Y of f."""
 
 
-def lobe(bsdfs: list, theta_i: float, phi_i: float = 0.0, n_theta: int = 46, n_phi: int = 73) -> Lobe:
-    """f(ω_i, ω_o) on a (θ_o, φ_o) grid of the upper hemisphere (θ_o ∈ [0°, 90°])."""
-    t = np.linspace(0.0, 90.0, n_theta)
+def lobe(bsdfs: list, theta_i: float, phi_i: float = 0.0, n_theta: int = 46, n_phi: int = 73,
+         full: bool | None = None) -> Lobe:
+    """f(ω_i, ω_o) on a (θ_o, φ_o) grid of the upper hemisphere (θ_o ∈ [0°, 90°]), or of the whole sphere
+    (θ_o ∈ [0°, 180°], ``2 n_theta − 1`` rows) when ``full`` (default: when some BSDF transmits)."""
+    if full is None:
+        full = any(reflectance.transmits(b) for b in bsdfs)
+    t = np.linspace(0.0, 180.0, 2 * n_theta - 1) if full else np.linspace(0.0, 90.0, n_theta)
     p = np.linspace(0.0, 360.0, n_phi)
     T, P = np.meshgrid(np.radians(t), np.radians(p), indexing="ij")
     wo = coords.spherical(T, P)
@@ -81,61 +93,52 @@ def half_diff_slice(bsdfs: list, phi_d: float = 90.0, n: int = 128) -> tuple[np.
 
 
 def albedo_quadrature(bsdf, theta_i: float) -> float:
-    """ρ(θ_i) = ∫ f cos θ_o dω_o (Y) by quadrature.
-
-    The built-in microfacet materials use the furnace check's half-vector quadrature
-    (:func:`brdflab.judges.material.furnace.albedo_quadrature`), as the validation battery does. Any other BSDF
-    (diffuse, plugins, textured roughness) is integrated over the hemisphere in (cos θ_o, φ_o), where
-    dω_o = d cos θ_o dφ_o, with the adaptive tensor Gauss–Legendre rule of the chi-square test
-    (:func:`brdflab.judges.material.chi2.adaptive_integrate`, cells split where 4- and 8-point rules disagree),
-    so narrow lobes of unknown shape are still resolved.
-    """
-    from brdflab.bsdf.roughconductor import RoughConductor
-    from brdflab.bsdf.roughsubstrate import RoughSubstrate
-    from brdflab.judges.material import chi2, furnace
-
-    if type(bsdf) in (RoughConductor, RoughSubstrate) and bsdf.alpha.constant:
-        return furnace.albedo_quadrature(bsdf, theta_i, bsdf.alpha_value)
-    wi = coords.incident(theta_i)
-
-    def integrand(mu, phi):
-        wo = coords.spherical(np.arccos(np.clip(mu, -1.0, 1.0)), phi)
-        return eval_luminance(bsdf, wi, wo) * mu
-
-    from brdflab import effort
-
-    cells = chi2.adaptive_integrate(integrand, np.linspace(0.0, 1.0, 9), np.linspace(0.0, 2 * np.pi, 17),
-                                    n=10**6, max_depth=effort.current().view_depth)
-    return float(cells.sum())
+    """ρ(θ_i) = ∫ f |cos θ_o| dω_o (Y; transmitted energy included) by quadrature
+    (:func:`brdflab.viz.reflectance.albedo_quadrature`: the furnace check's half-vector rule for the built-in
+    conductors, a fixed rule at a measured table's resolution, the adaptive tensor Gauss–Legendre rule of the
+    chi-square test in (cos θ_o, φ_o) for anything else, so narrow lobes of unknown shape are still resolved)."""
+    return reflectance.albedo_quadrature(bsdf, theta_i)
 
 
 @dataclass
 class Albedo:
-    """Directional albedo curves of K BSDFs at T incident angles."""
+    """Directional albedo curves of K BSDFs at T incident angles: R + T, and R and T apart."""
 
     theta_deg: np.ndarray
     quadrature: np.ndarray
-    """(K, T)."""
+    """(K, T) R + T."""
     monte_carlo: np.ndarray
-    """(K, T) mean sample weight f cos θ_o / p (Y)."""
+    """(K, T) mean sample weight f |cos θ_o| / p (Y; below the surface × (η_o/η_i)²)."""
     mc_stderr: np.ndarray
     """(K, T) its standard error."""
     samples: int
+    reflected: np.ndarray | None = None
+    """(K, T) R by quadrature (the upper hemisphere, or the reflected delta lobe)."""
+    transmitted: np.ndarray | None = None
+    """(K, T) T by quadrature (energy: :mod:`brdflab.viz.reflectance`); 0 without transmission."""
+    mc_parts: np.ndarray | None = None
+    """(K, T, 2, 2) Monte Carlo (R, T) × (mean, standard error)."""
+
+    @property
+    def any_transmission(self) -> bool:
+        """Does some curve transmit light (T > 0 anywhere)?"""
+        return self.transmitted is not None and bool(np.any(self.transmitted > 0) or np.any(
+            self.mc_parts[:, :, 1, 0] > 0))
 
 
 def albedo(bsdfs: list, thetas=ALBEDO_THETAS, n: int = 20_000, seed: int = 0) -> Albedo:
-    """ρ(θ_i) by quadrature and by Monte Carlo with its standard error (the furnace check's estimators).
+    """ρ(θ_i) by quadrature and by Monte Carlo with its standard error (the furnace check's estimators), each
+    also split into reflection R and transmission T (:mod:`brdflab.viz.reflectance`).
 
     Each (BSDF, θ_i) pair draws from its own random stream (``seed``, BSDF index, angle index).
     """
-    from brdflab.judges.material import furnace
-
     th = np.asarray(thetas, float)
-    q = np.array([[albedo_quadrature(b, t) for t in th] for b in bsdfs])
-    mc = np.zeros_like(q)
-    se = np.zeros_like(q)
+    parts = np.array([[reflectance.albedo_parts(b, t) for t in th] for b in bsdfs]).reshape(len(bsdfs), len(th), 2)
+    mc = np.zeros((len(bsdfs), len(th), 3, 2))
     for k, b in enumerate(bsdfs):
         for j, t in enumerate(th):
             s = int(np.random.SeedSequence([seed, k, j]).generate_state(1)[0])
-            mc[k, j], se[k, j] = furnace.albedo_monte_carlo(b, float(t), n, seed=s)
-    return Albedo(th, q, mc, se, n)
+            mean, se = reflectance.monte_carlo_parts(b, float(t), n, s)
+            mc[k, j] = np.stack([mean, se], axis=1)
+    return Albedo(th, parts.sum(axis=2), mc[:, :, 2, 0], mc[:, :, 2, 1], n, parts[..., 0], parts[..., 1],
+                  mc[:, :, :2, :])
