@@ -386,6 +386,8 @@ def run_tests(workdir: Path, timeout: float) -> tuple[str, str, float]:
     except subprocess.TimeoutExpired:
         return "timeout", "", time.monotonic() - t0
     failed = next((line.split()[1] for line in r.stdout.splitlines() if line.startswith(("FAILED", "ERROR"))), "")
+    if failed and os.environ.get("MUTATION_VERBOSE"):
+        print("\n".join(r.stdout.splitlines()[-40:]), flush=True)
     return ("survived" if r.returncode == 0 else "killed"), failed, time.monotonic() - t0
 
 
@@ -434,8 +436,8 @@ def main(argv: list[str] | None = None) -> int:
         originals = {m.path: (tmp / m.path).read_text() for m in mutants}
         for m in mutants:
             apply(originals[m.path], m)  # every mutant still applies to the copied source
-        status, _, secs = run_tests(tmp, args.timeout)
-        print(f"baseline: {status} in {secs:.0f} s", flush=True)
+        status, failed, secs = run_tests(tmp, args.timeout)
+        print(f"baseline: {status} in {secs:.0f} s{' (' + failed + ')' if failed else ''}", flush=True)
         if status != "survived":
             print("the unmutated selection does not pass; fix that first", file=sys.stderr)
             return 2

@@ -15,6 +15,14 @@ def pytest_sessionstart(session) -> None:
     the tests that compare the engines need them, and with them every test process and subprocess runs
     the same engine from its first test on (without, a run's processes would switch from the NumPy engine
     to the compiled one when the background build ends)."""
+    import signal
+
+    # A suite started in the background of a shell without job control (``cmd &``, nohup, some CI runners)
+    # inherits SIGINT ignored, and every process it starts would too: the tests that press Ctrl-C on a render
+    # would see it ignored. Handled (not ignored), it is the default again in every child after exec.
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
     from brdflab.kernels import ensure_built
 
     ensure_built()
