@@ -91,3 +91,39 @@ def fresnel_schlick(cos_t: np.ndarray, r0: np.ndarray, scale: np.ndarray | None 
         if scale is not None:
             c *= scale
     return out
+
+
+def fresnel_conductor(cos_i: np.ndarray, eta: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Exact unpolarised reflectance (N, 3) of a conductor of complex index η + ik (relative to the outside
+    medium) for cosines (N,) in [0, 1] (PBR-3 §8.2.2, eqs. 8.5–8.6; Born & Wolf §14.2):
+
+    a² + b² = √((η² − k² − sin²θ)² + 4η²k²), a = √((a² + b² + η² − k² − sin²θ)/2),
+    R_s = (a² + b² + cos²θ − 2a cos θ)/(a² + b² + cos²θ + 2a cos θ),
+    R_p = R_s (cos²θ (a² + b²) + sin⁴θ − 2a cos θ sin²θ)/(cos²θ (a² + b²) + sin⁴θ + 2a cos θ sin²θ),
+    F = (R_s + R_p)/2; k = 0 gives the dielectric F of index η.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f = fresnel_conductor(np.array([1.0]), np.array([1.5, 1.5, 1.5]), np.zeros(3))
+    >>> np.round(f, 6).tolist()                                  # ((1.5 − 1)/(1.5 + 1))² = 0.04
+    [[0.04, 0.04, 0.04]]
+    """
+    c = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)[:, None]
+    eta = np.asarray(eta, dtype=np.float64)
+    k = np.asarray(k, dtype=np.float64)
+    c2 = c * c
+    s2 = 1.0 - c2
+    e2, k2 = eta * eta, k * k
+    t0 = e2 - k2 - s2
+    a2b2 = np.sqrt(t0 * t0 + 4.0 * e2 * k2)
+    a = np.sqrt(np.maximum(0.5 * (a2b2 + t0), 0.0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rs = (t1 - t2) / (t1 + t2)
+        t3 = c2 * a2b2 + s2 * s2
+        t4 = t2 * s2
+        rp = rs * (t3 - t4) / (t3 + t4)
+    f = 0.5 * (rs + rp)
+    return np.asfortranarray(np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0))

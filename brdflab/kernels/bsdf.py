@@ -257,23 +257,37 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
     return f, pdf, wo, weight
 
 
+def _covered(bsdf) -> bool:
+    """False for a roughconductor outside the kernel's model (GGX, anisotropic α, visible normals, η/k): the
+    NumPy method runs instead (the twin returns ``NotImplemented``)."""
+    return bsdf.course_model if type(bsdf).kernel == "roughconductor" else True
+
+
 def eval_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
     """``bsdf.eval`` of a built-in material, compiled."""
+    if not _covered(bsdf):
+        return NotImplemented
     return _run(bsdf, TERMS, True, False, wi, wo, None, uv)[0]
 
 
 def pdf_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
     """``bsdf.pdf`` of a built-in material, compiled."""
+    if not _covered(bsdf):
+        return NotImplemented
     return _run(bsdf, TERMS, False, True, wi, wo, None, uv)[1]
 
 
 def eval_pdf_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None):
     """``bsdf.eval_pdf`` of a built-in material, compiled."""
+    if not _covered(bsdf):
+        return NotImplemented
     f, pdf, _, _ = _run(bsdf, TERMS, True, True, wi, wo, None, uv)
     return f, pdf
 
 
 def sample_bsdf(bsdf, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
     """``bsdf.sample`` of a built-in material, compiled."""
+    if not _covered(bsdf):
+        return NotImplemented
     _, pdf, wo, weight = _run(bsdf, SAMPLE, True, True, wi, None, u, uv)
     return BSDFSample(wo, weight, pdf)
