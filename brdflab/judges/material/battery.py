@@ -7,8 +7,9 @@ BSDFs given to it (a user's plugin): names (built-in, or resolved by the plugin 
 :class:`BSDFEntry` objects, or names with a ``make(name, alpha, params)`` callable. A BSDF without an
 ``alpha`` parameter is swept over θ only; a class attribute ``sweep = {"exponent": [5, 20, 100]}`` adds
 its grid to the sweep (parameters given explicitly are not swept). The chi-square tests share one family-wise
-significance of 0.01 (Šidák-corrected for their number). A **negative control** — the rough conductor
-with its pdf missing the 1/(4|ω_o·ω_h|) Jacobian — must be rejected, or the harness itself is broken.
+significance of 0.01 (Šidák-corrected for their number). The **negative controls** — the rough conductor
+with its pdf missing the 1/(4|ω_o·ω_h|) Jacobian, the GGX visible-normal pdf without G1(ω_i), samplers with
+α_u and α_v swapped — must be rejected, or the harness itself is broken.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from brdflab.judges.material import chi2 as c2
 from brdflab.judges.material import consistency, furnace, stability
 from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the module's former contents)
     BSDFS,
+    CONDUCTOR_CONTROLS,
     FURNACE_ALPHAS,
     POINT_WARPS,
     WARPS,
@@ -339,6 +341,14 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         if progress:
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control θ={t:g}: "
                      f"p = {r.p_value:.3g}")
+    for k, (what, make_control) in enumerate(CONDUCTOR_CONTROLS):
+        t = (30.0, 60.0)[k % 2]
+        r = c2.bsdf_test(what, make_control(), t, n, seed=_seed("neg-conductor", k, t), params={"theta": t},
+                         threshold=threshold)
+        bat.negative_control.append(r)
+        if progress:
+            progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control {what} "
+                     f"θ={t:g}: p = {r.p_value:.3g}")
     if any(e.flag("has_transmission") for e in entries):
         from brdflab.judges.material.transmission_controls import run_controls
 

@@ -1,7 +1,7 @@
-"""What the validation battery runs on: the built-in BSDFs and lobe variants, the warps, the negative control (the
-conductor pdf without its Jacobian), and :class:`BSDFEntry` — how to build any BSDF (a name, an instance, a class,
-a plugin, a factory) with its sweep — resolved by :func:`resolve_bsdfs`. The battery itself is
-:mod:`brdflab.judges.material.battery`.
+"""What the validation battery runs on: the built-in BSDFs and lobe variants, the warps, the negative controls (the
+conductor pdf without its Jacobian; the GGX visible-normal pdf without G1(ω_i); α_u/α_v swapped in a sampler), and
+:class:`BSDFEntry` — how to build any BSDF (a name, an instance, a class, a plugin, a factory) with its sweep —
+resolved by :func:`resolve_bsdfs`. The battery itself is :mod:`brdflab.judges.material.battery`.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from brdflab.bsdf import microfacet as mf
 from brdflab.bsdf.dielectric import Dielectric
 from brdflab.bsdf.diffuse import Diffuse
 from brdflab.bsdf.microfacet import beckmann_d, half_vector
@@ -32,6 +33,43 @@ class NoJacobianConductor(RoughConductor):
         a = alpha_values(self.alpha, uv, len(wi))
         wh, ok = half_vector(wi, wo)
         return np.where(ok & (wi[:, 2] > 0), beckmann_d(wh[:, 2], a) * np.maximum(wh[:, 2], 0.0), 0.0)
+
+
+class VndfWithoutG1Conductor(RoughConductor):
+    """A deliberately wrong GGX conductor with visible-normal sampling: its pdf omits G1(ω_i), i.e. uses
+    max(0, ω_i·ω_h) D(ω_h)/cos θ_i · 1/(4 |ω_o·ω_h|), which does not integrate to 1."""
+
+    def __init__(self, R0=0.5, alpha=0.3, **kw):  # noqa: N803
+        super().__init__(R0, alpha, **{"distribution": "ggx", "sample_visible": True, **kw})
+
+    def _terms(self, wi, wo, uv, need_f, need_pdf):
+        f, pdf = super()._terms(wi, wo, uv, need_f, need_pdf)
+        if need_pdf:
+            pdf = pdf * (1.0 + mf.smith_lambda(self.distribution, wi, *self.alphas(uv, len(wi))))
+        return f, pdf
+
+
+class SwappedAlphaConductor(RoughConductor):
+    """A deliberately wrong anisotropic conductor: its sampler swaps α_u and α_v (eval and pdf do not)."""
+
+    def __init__(self, R0=0.5, alpha=0.3, **kw):  # noqa: N803
+        super().__init__(R0, alpha, **{"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.4, **kw})
+
+    def sample_normals(self, wi, u, uv=None):
+        """The normals of the sampler with α_u and α_v exchanged."""
+        ax, ay = self.alphas(uv, len(wi))
+        if self.sample_visible:
+            return mf.sample_visible_normals(self.distribution, wi, u, ay, ax)
+        return mf.sample_normals(self.distribution, u, ay, ax)
+
+
+#: The controls of the GGX/anisotropic conductor: (name, BSDF) that the chi-square must reject.
+CONDUCTOR_CONTROLS: tuple[tuple[str, Callable], ...] = (
+    ("ggx conductor, visible-normal pdf without G1(ω_i)", lambda: VndfWithoutG1Conductor(0.5, 0.3)),
+    ("anisotropic ggx conductor, α_u/α_v swapped in the sampler", lambda: SwappedAlphaConductor(0.5)),
+    ("anisotropic beckmann conductor, α_u/α_v swapped in the sampler",
+     lambda: SwappedAlphaConductor(0.5, distribution="beckmann", sample_visible=False)),
+)
 
 
 #: BSDF factories by name: (alpha, **params) → BSDF. Lobe variants of the substrate are separate entries.

@@ -88,6 +88,11 @@ def materials() -> dict[str, object]:
         out[f"roughconductor α={a:g} R0=1"] = RoughConductor(1.0, a)
         out[f"roughconductor α={a:g} R0=0"] = RoughConductor(0.0, a)
         out[f"roughsubstrate α={a:g}"] = RoughSubstrate(0.5, a)
+        out[f"roughconductor ggx α={a:g} η,k"] = RoughConductor(distribution="ggx", alpha=a, material="Au")
+        out[f"roughconductor beckmann visible α_u={a:g} α_v=0.3"] = RoughConductor(
+            1.0, distribution="beckmann", sample_visible=True, alpha_u=a, alpha_v=0.3)
+        out[f"roughconductor ggx α_u=0.3 α_v={a:g} (normals ∝ D cos)"] = RoughConductor(
+            1.0, distribution="ggx", sample_visible=False, alpha_u=0.3, alpha_v=a)
     out["roughsubstrate η=1.0001/1"] = RoughSubstrate(0.5, 0.1, 1.0001, 1.0)
     out["roughsubstrate η=1/1 (equal)"] = RoughSubstrate(0.5, 0.1, 1.0, 1.0)
     out["roughsubstrate η=10/1"] = RoughSubstrate(0.5, 0.1, 10.0, 1.0)
