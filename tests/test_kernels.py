@@ -52,6 +52,8 @@ def directions(rng: np.random.Generator, n: int) -> np.ndarray:
 def materials() -> dict[str, object]:
     chk = CheckerTexture(4, 3)
     fam_c = BSDFFamily([RoughConductor(R0=[0.9, 0.6, 0.2], alpha=0.02), RoughConductor(R0=0.3, alpha=0.4)])
+    fam_g = BSDFFamily([RoughConductor(R0=0.9, alpha=0.02, distribution="ggx", alpha_v=0.3),
+                        RoughConductor(R0=0.3, alpha=0.4, distribution="ggx", alpha_v=0.3)])
     fam_s = BSDFFamily([RoughSubstrate(kd=[0.7, 0.2, 0.1], alpha=0.05), RoughSubstrate(kd=0.2, alpha=0.6)])
     fam_d = BSDFFamily([Diffuse([0.8, 0.1, 0.1]), Diffuse(0.5)])
     return {
@@ -63,6 +65,14 @@ def materials() -> dict[str, object]:
         "conductor/α=1": RoughConductor(R0=0.04, alpha=1.0),
         "conductor/textured": RoughConductor(R0=chk, alpha=chk),
         "conductor/family": (fam_c, 2),
+        "conductor/ggx visible": RoughConductor(R0=[0.9, 0.6, 0.2], alpha=0.2, distribution="ggx"),
+        "conductor/ggx α=1e-3": RoughConductor(alpha=1e-3, distribution="ggx"),
+        "conductor/ggx anisotropic η,k": RoughConductor(distribution="ggx", alpha_u=0.05, alpha_v=0.6,
+                                                       eta=[0.2, 0.92, 1.1], k=[3.9, 2.45, 2.14]),
+        "conductor/ggx D cos": RoughConductor(alpha=chk, distribution="ggx", sample_visible=False, material="Au"),
+        "conductor/beckmann anisotropic": RoughConductor(R0=chk, alpha=0.3, alpha_v=0.02),
+        "conductor/beckmann η,k": RoughConductor(alpha=0.3, material="Cu"),
+        "conductor/ggx family": (fam_g, 2),
         "substrate/α=1e-3": RoughSubstrate(kd=[0.6, 0.3, 0.2], alpha=1e-3),
         "substrate/α=0.3": RoughSubstrate(alpha=0.3, intIOR=1.33),
         "substrate/TIR": RoughSubstrate(alpha=0.2, intIOR=1.0, extIOR=1.6),

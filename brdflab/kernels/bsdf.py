@@ -25,7 +25,11 @@ from brdflab.kernels.scalar import (
     beckmann_d,
     cos_over_pdf,
     finite_or_zero,
+    fresnel_conductor,
     fresnel_dielectric,
+    g1,
+    ggx_lambda,
+    ndf,
     pow5,
     smith_g1,
 )
@@ -40,6 +44,11 @@ LOBES = {"both": 0, "specular": 1, "diffuse": 2}
 _NO_INDEX = np.zeros(0, np.int64)
 _NO_U = np.zeros((0, 3))
 _NO_LG = np.zeros(0)
+_NO_ETA = np.ones(3)
+
+
+def _nan_or(x: float | None) -> float:
+    return math.nan if x is None else float(x)
 
 
 @inline
@@ -117,37 +126,107 @@ def diffuse(op, need_f, need_pdf, wi, wo, u, alb, alb_mode, alb_idx, f, pdf, wei
 
 
 @inline
-def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, r0, k, need_f, need_pdf, out, i):
-    """f (into ``out[i]``) and returns p of one query (:meth:`RoughConductor._terms`)."""
+def _normalized(x, y, z):
+    """``brdflab.bsdf.microfacet._normalize`` for one vector."""
+    n = math.sqrt(x * x + y * y + z * z)
+    return x / n, y / n, z / n
+
+
+@inline
+def _slope_normal(ggx, lg, u0, u1, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.sample_normals` (stretched slopes) for one sample; ``lg`` = ln(1 − ξ1)."""
+    r2 = u0 / (1.0 - u0) if ggx else -lg
+    r = math.sqrt(r2)
+    phi = TWO_PI * u1
+    return _normalized(-ax * r * math.cos(phi), -ay * r * math.sin(phi), 1.0)
+
+
+@inline
+def _ggx_visible_normal(wix, wiy, wiz, u0, u1, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.sample_visible_normals` of GGX (Heitz 2018, listing 3) for one sample."""
+    vx, vy, vz = ax * wix, ay * wiy, wiz
+    vn = math.sqrt(vx * vx + vy * vy + vz * vz)
+    vx, vy, vz = vx / vn, vy / vn, vz / vn
+    lensq = vx * vx + vy * vy
+    t1x, t1y = 1.0, 0.0
+    if lensq > 0.0:
+        inv = 1.0 / math.sqrt(lensq)
+        t1x, t1y = -vy * inv, vx * inv
+    t2x, t2y, t2z = -vz * t1y, vz * t1x, vx * t1y - vy * t1x
+    r = math.sqrt(u0)
+    phi = TWO_PI * u1
+    p1 = r * math.cos(phi)
+    p2 = r * math.sin(phi)
+    s = 0.5 * (1.0 + vz)
+    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1x + p2 * t2x + p3 * vx
+    ny = p1 * t1y + p2 * t2y + p3 * vy
+    nz = p2 * t2z + p3 * vz
+    return _normalized(ax * nx, ay * ny, max(0.0, nz))
+
+
+@inline
+def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, ax, ay, iso, ggx, vis, use_eta, eta, kk, r0, k, need_f,
+                     need_pdf, out, i):
+    """f (into ``out[i]``) and returns p of one query (:meth:`RoughConductor._terms`): the course's Beckmann D
+    and G1 when ``iso``, else :func:`~brdflab.kernels.scalar.ndf`/``g1``; Schlick, or (η, k) with ``use_eta``;
+    the D cos θ_h or (``vis``) the visible-normal density."""
     ci, co = wiz, woz
     hx, hy, hz, okh, hi = _half(wix, wiy, wiz, wox, woy, woz)
-    d = beckmann_d(hz, a)
+    d = beckmann_d(hz, a) if iso else ndf(ggx, hx, hy, hz, ax, ay)
     if need_f:
         ok = ci > 0.0 and co > 0.0 and okh
-        g = smith_g1(ci, hi, a) * smith_g1(co, wox * hx + woy * hy + woz * hz, a)
+        oh = wox * hx + woy * hy + woz * hz
+        if iso:
+            g = smith_g1(ci, hi, a) * smith_g1(co, oh, a)
+        else:
+            g = g1(ggx, wix, wiy, wiz, hi, ax, ay) * g1(ggx, wox, woy, woz, oh, ax, ay)
         s = finite_or_zero(d * g / (4.0 * ci * co)) if ok else 0.0
-        m5 = pow5(1.0 - min(max(hi, 0.0), 1.0))
-        for j in range(3):
-            r = r0[k, j]
-            out[i, j] = (m5 * (1.0 - r) + r) * s
+        if use_eta:
+            for j in range(3):
+                out[i, j] = fresnel_conductor(hi, eta[j], kk[j]) * s
+        else:
+            m5 = pow5(1.0 - min(max(hi, 0.0), 1.0))
+            for j in range(3):
+                r = r0[k, j]
+                out[i, j] = (m5 * (1.0 - r) + r) * s
     p = 0.0
     if need_pdf and ci > 0.0 and okh and hi > 0.0:
-        p = _reflection_pdf(hx, hy, hz, wox, woy, woz, d)
+        if vis:
+            oh = abs(wox * hx + woy * hy + woz * hz)
+            p = finite_or_zero(d * max(hi, 0.0) / ((1.0 + ggx_lambda(wix, wiy, wiz, ax, ay)) * ci * 4.0 * oh))
+        else:
+            p = _reflection_pdf(hx, hy, hz, wox, woy, woz, d)
     return p
 
 
-@kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN1, IN2, I8, IDX, IN1, I8, IDX, OUT2, OUT1, OUT2)
-def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_mode, al_idx, f, pdf, weight):
-    """``roughconductor``: Beckmann D, Schlick F, rational Smith G1; Beckmann sampling + reflection."""
+@kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN1, IN2, I8, IDX, IN1, I8, IDX, BOOL, BOOL, BOOL, BOOL, F8, F8, IN1, IN1,
+        OUT2, OUT1, OUT2)
+def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_mode, al_idx, iso, ggx, vis, use_eta,
+              au, av, eta, kk, f, pdf, weight):
+    """``roughconductor``: Beckmann (the course's, or anisotropic) or GGX D, Schlick or (η, k) F, Smith G1;
+    D cos θ_h sampling (the Beckmann warp, or stretched slopes) or GGX visible normals, then reflection."""
     for i in range(wi.shape[0]):
         a = al[_row(al_mode, al_idx, i)]
+        ax = a if math.isnan(au) else au
+        ay = a if math.isnan(av) else av
         wix, wiy, wiz = wi[i, 0], wi[i, 1], wi[i, 2]
         if op == SAMPLE:
-            hx, hy, hz = _beckmann_normal(lg[i], u[i, 1], a)
-            wo[i, 0], wo[i, 1], wo[i, 2] = _reflect(wix, wiy, wiz, hx, hy, hz)
+            if iso and not vis:
+                hx, hy, hz = _beckmann_normal(lg[i], u[i, 1], a)
+            elif vis:
+                hx, hy, hz = _ggx_visible_normal(wix, wiy, wiz, u[i, 0], u[i, 1], ax, ay)
+            else:
+                hx, hy, hz = _slope_normal(ggx, 0.0 if ggx else lg[i], u[i, 0], u[i, 1], ax, ay)
+            ox, oy, oz = _reflect(wix, wiy, wiz, hx, hy, hz)
+            if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)):
+                ox, oy, oz = 0.0, 0.0, -1.0
+            wo[i, 0], wo[i, 1], wo[i, 2] = ox, oy, oz
         k = _row(r0_mode, r0_idx, i)
         out = weight if op == SAMPLE else f
-        p = _conductor_point(wix, wiy, wiz, wo[i, 0], wo[i, 1], wo[i, 2], a, r0, k, need_f, need_pdf, out, i)
+        p = _conductor_point(wix, wiy, wiz, wo[i, 0], wo[i, 1], wo[i, 2], a, ax, ay, iso, ggx, vis, use_eta, eta, kk,
+                             r0, k, need_f, need_pdf, out, i)
         pdf[i] = p
         if op == SAMPLE:
             c = cos_over_pdf(wo[i, 2], p)
@@ -243,14 +322,17 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
     # which tiny α amplifies (exp, sin, cos and sqrt agree or are not amplified).
     lg = _NO_LG
     name = type(bsdf).kernel
-    if op == SAMPLE and name != "diffuse":
+    if op == SAMPLE and name != "diffuse" and getattr(bsdf, "distribution", "") != "ggx":
         with np.errstate(divide="ignore"):  # ξ1 = 1: ln 0 = −∞, the horizon (as in the NumPy warp)
             lg = np.log1p(-u[:, 0])
     if name == "diffuse":
         diffuse(op, need_f, need_pdf, wi, wo, u, *_slot(bsdf.albedo, uv, n, False), f, pdf, weight)
     elif name == "roughconductor":
+        eta = _NO_ETA if bsdf.eta is None else bsdf.eta
+        kk = _NO_ETA if bsdf.k is None else bsdf.k
         conductor(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.R0, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
-                  f, pdf, weight)
+                  bsdf.isotropic_beckmann, bsdf.distribution == "ggx", bsdf.sample_visible, bsdf.eta is not None,
+                  _nan_or(bsdf.alpha_u), _nan_or(bsdf.alpha_v), eta, kk, f, pdf, weight)
     else:
         substrate(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.kd, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
                   LOBES.get(bsdf.lobe, 0), bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
@@ -258,9 +340,11 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
 
 
 def _covered(bsdf) -> bool:
-    """False for a roughconductor outside the kernel's model (GGX, anisotropic α, visible normals, η/k): the
-    NumPy method runs instead (the twin returns ``NotImplemented``)."""
-    return bsdf.course_model if type(bsdf).kernel == "roughconductor" else True
+    """False for a roughconductor outside the kernel's models (Beckmann with visible-normal sampling: its slope
+    inversion stays in NumPy): the NumPy method runs instead (the twin returns ``NotImplemented``)."""
+    if type(bsdf).kernel != "roughconductor":
+        return True
+    return not (bsdf.distribution == "beckmann" and bsdf.sample_visible)
 
 
 def eval_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:

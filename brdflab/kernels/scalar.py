@@ -82,3 +82,67 @@ def cos_over_pdf(cos_o, pdf):
 def finite_or_zero(x):
     """x where finite, else 0."""
     return x if math.isfinite(x) else 0.0
+
+
+@inline
+def inv_a2(x, y, z, ax, ay):
+    """``brdflab.bsdf.microfacet._inv_a2``: (α_u² x² + α_v² y²)/z² (∞ for 0/0)."""
+    px, py = ax * x, ay * y
+    t = (px * px + py * py) / (z * z)  # error_model="numpy": x/0 is ∞ or NaN, as in NumPy
+    return math.inf if math.isnan(t) else t
+
+
+@inline
+def ndf(ggx, x, y, z, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.ndf` (Beckmann or GGX, anisotropic) for one ω_h."""
+    if not z > 0.0:
+        return 0.0
+    qx, qy = x / ax, y / ay
+    e = qx * qx + qy * qy
+    z2 = z * z
+    if ggx:
+        q = e + z2
+        d = 1.0 / (PI * ax * ay * (q * q))
+    else:
+        d = math.exp(-e / z2) / (PI * ax * ay * (z2 * z2))
+    return d if math.isfinite(d) else 0.0
+
+
+@inline
+def g1(ggx, x, y, z, vh, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.g1`: exact GGX, rational Beckmann (anisotropic), with ``vh`` = v·ω_h."""
+    if not (vh / z) > 0.0:
+        return 0.0
+    t = inv_a2(x, y, z, ax, ay)
+    if ggx:
+        return 2.0 / (1.0 + math.sqrt(1.0 + t))
+    b = 1.0 / math.sqrt(t)
+    if not b < 1.6:
+        return 1.0
+    return (3.535 * b + 2.181 * b * b) / (1.0 + 2.276 * b + 2.577 * b * b)
+
+
+@inline
+def ggx_lambda(x, y, z, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.smith_lambda` of GGX (Heitz 2014, eq. 72)."""
+    return 0.5 * (math.sqrt(1.0 + inv_a2(x, y, z, ax, ay)) - 1.0)
+
+
+@inline
+def fresnel_conductor(c, eta, k):
+    """:func:`brdflab.bsdf.fresnel.fresnel_conductor` (PBR-3 eqs. 8.5–8.6) for one cosine and channel."""
+    c = min(max(c, 0.0), 1.0)
+    c2 = c * c
+    s2 = 1.0 - c2
+    e2, k2 = eta * eta, k * k
+    t0 = e2 - k2 - s2
+    a2b2 = math.sqrt(t0 * t0 + 4.0 * e2 * k2)
+    a = math.sqrt(max(0.5 * (a2b2 + t0), 0.0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    rs = (t1 - t2) / (t1 + t2)
+    t3 = c2 * a2b2 + s2 * s2
+    t4 = t2 * s2
+    rp = rs * (t3 - t4) / (t3 + t4)
+    f = 0.5 * (rs + rp)
+    return min(max(f, 0.0), 1.0) if math.isfinite(f) else 1.0
