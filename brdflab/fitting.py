@@ -226,7 +226,10 @@ def fit(measured, model: str = "roughconductor", loss: str = "log", fixed: dict 
     unknown = [k for k in fixed if k not in kinds]
     if unknown:
         raise BrdflabError(f"fit: '{model}' has no parameter '{unknown[0]}'; its parameters: {', '.join(kinds)}")
-    free = [k for k, kind in kinds.items() if kind in ("float", "color") and k not in fixed]
+    # A class may name the parameters fitted by default (roughconductor: R0 and alpha, not its optional
+    # anisotropy and η/k, which are alternatives to them).
+    fit_free = getattr(bsdf_class(model), "fit_parameters", None) or tuple(kinds)
+    free = [k for k, kind in kinds.items() if kind in ("float", "color") and k not in fixed and k in fit_free]
     if not free:
         raise BrdflabError(f"fit: '{model}' has no float or colour parameter left to fit")
     wi, wo, f_meas, cc = data_nodes(table, stride)

@@ -216,3 +216,17 @@ def test_parameters_from_scene_param_and_constructor(tmp_path):
     (b,) = [b for b in scene.bsdfs if isinstance(b, RoughConductor)]
     assert b.distribution == "ggx" and (b.alpha_u, b.alpha_v) == (0.1, 0.3)
     assert b.scalar_parameters() != RoughConductor(0.5, 0.1).scalar_parameters()  # no family with Beckmann
+
+
+def test_metal_colours_are_the_conversion_of_the_tables():
+    """The stored (η, k) of each metal is the documented conversion of its spectral table; a constant stays grey."""
+    from brdflab.bsdf.conductors import MATERIALS, METALS_RGB, convert_table, spectrum_to_rgb
+
+    for name in MATERIALS:
+        eta, k = convert_table(name)
+        np.testing.assert_allclose(METALS_RGB[name][0], eta, rtol=1e-12)
+        np.testing.assert_allclose(METALS_RGB[name][1], k, rtol=1e-12)
+    np.testing.assert_allclose(spectrum_to_rgb([380.0, 780.0], [0.7, 0.7]), 0.7, rtol=1e-12)
+    assert np.array_str(np.array([0.2])) == "[0.2]"  # importing colour-science left NumPy's print options alone
+    r_au = fresnel_conductor(np.array([1.0]), *METALS_RGB["Au"])[0]
+    assert r_au[0] > r_au[1] > r_au[2]  # gold reflects red more than blue

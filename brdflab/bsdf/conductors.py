@@ -34,14 +34,28 @@ TABLES: dict[str, tuple[tuple[float, float, float], ...]] = {
            (688.8, 1.731, 7.96), (729.3, 2.082, 8.34), (774.9, 2.588, 8.55), (826.6, 2.829, 7.75)),
 }
 MATERIALS = tuple(TABLES)
+#: (η, k) in linear sRGB of each metal: :func:`spectrum_to_rgb` of :data:`TABLES` (stored, so that rendering does not
+#: import colour-science; ``tests/test_ggx_conductor.py`` recomputes them).
+METALS_RGB: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "Au": ((0.37824656946309154, 0.7141140015095376, 1.841622628673691),
+           (3.6685884678515177, 2.3370206248644445, 1.6953715220157284)),
+    "Ag": ((0.2740929757585342, 0.24924648179240788, 0.2284982335746736),
+           (4.410493281277804, 3.5221331178717428, 2.5373905056495336)),
+    "Cu": ((0.07476382678048132, 0.9637844513209584, 1.2087074311760457),
+           (3.335196287950483, 2.59691961834041, 2.3533136644141694)),
+    "Al": ((1.4348099870012005, 0.9666037996243937, 0.6051447392197153),
+           (7.574060935733609, 6.447590516297282, 5.2805904904796925)),
+}
 _LAMBDA = np.arange(380.0, 781.0, 5.0)
 
 
 @functools.cache
 def _spectrum_to_rgb_matrix() -> np.ndarray:
     """(3, L) weights: linear sRGB of a spectrum sampled at :data:`_LAMBDA` (module docstring)."""
-    import colour
+    opts = np.get_printoptions()
+    import colour  # it sets NumPy's legacy print options on import: restored below
 
+    np.set_printoptions(**opts)
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
     xyz_bar = np.stack([np.interp(_LAMBDA, cmfs.wavelengths, cmfs.values[:, j]) for j in range(3)])
     xyz_bar = xyz_bar / xyz_bar[1].sum()  # a constant spectrum c → Y = c
@@ -66,10 +80,10 @@ def spectrum_to_rgb(wavelengths, values) -> np.ndarray:
     return _spectrum_to_rgb_matrix() @ s
 
 
-@functools.cache
-def _metal(name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+def convert_table(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(η, k) of metal ``name`` converted from :data:`TABLES` now (what :data:`METALS_RGB` stores)."""
     t = np.array(TABLES[name])
-    return tuple(spectrum_to_rgb(t[:, 0], t[:, 1])), tuple(spectrum_to_rgb(t[:, 0], t[:, 2]))
+    return spectrum_to_rgb(t[:, 0], t[:, 1]), spectrum_to_rgb(t[:, 0], t[:, 2])
 
 
 def metal_eta_k(name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -81,5 +95,5 @@ def metal_eta_k(name: str) -> tuple[np.ndarray, np.ndarray]:
     >>> bool(eta[0] < eta[2])        # gold: low η in the red, high in the blue
     True
     """
-    eta, k = _metal(name)
+    eta, k = METALS_RGB[name]
     return np.array(eta), np.array(k)

@@ -111,6 +111,8 @@ class RoughConductor(BSDF):
     #: Compiled twin in :mod:`brdflab.kernels.bsdf` (own body only: subclasses stay on NumPy).
     kernel = "roughconductor"
     texture_slots = ("R0", "alpha")
+    #: What ``fit`` adjusts by default (the optional anisotropy and η/k are alternatives to R0 and alpha).
+    fit_parameters = ("R0", "alpha")
     KNOWN = {"R0": "color", "alpha": "float", "alpha_u": "float", "alpha_v": "float", "distribution": "string",
              "sample_visible": "boolean", "eta": "color", "k": "color", "material": "string"}
 
