@@ -56,9 +56,14 @@ def _kind_of(value: Any) -> str | None:
 def parameter_kinds(cls: type, origin: str | None = None) -> dict[str, str]:
     """Parameter name → kind (``float``, ``integer``, ``boolean``, ``string``, ``color``) of a BSDF class.
 
-    Built-ins declare theirs in ``KNOWN``; for other classes they come from the ``__init__`` defaults.
+    Built-ins declare theirs in ``KNOWN`` (a subclass that keeps a built-in's ``__init__`` keeps them); for other
+    classes they come from the ``__init__`` defaults.
     """
     known = cls.__dict__.get("KNOWN") or (getattr(cls, "KNOWN", None) if _is_builtin_class(cls) else None)
+    if known is None:  # a subclass that keeps a built-in's __init__ keeps its parameters (and their kinds)
+        owner = next((c for c in cls.__mro__ if "__init__" in c.__dict__), None)
+        if owner is not None and owner is not cls and _is_builtin_class(owner) and "KNOWN" in owner.__dict__:
+            known = owner.__dict__["KNOWN"]
     if known is not None:
         return dict(known)
     out = {}
