@@ -259,6 +259,8 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
         kinds = parameter_kinds(allowed[slot.name])
         children = []
         for key, default in defaults.items():
+            if default is None:  # an optional parameter without a value (roughconductor's alpha_u, eta …)
+                continue
             kind = kinds[key]
             if kind == "color":
                 children += colour_widgets(slot, key, default)
