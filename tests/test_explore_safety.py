@@ -79,7 +79,7 @@ def test_allow_list_is_resolved_once_at_start(monkeypatch):
 
 def test_numbers_are_clamped_to_the_servers_range():
     doc, g = _doc()
-    for value, shown in [(1e-12, "alpha=0.002"), (float("nan"), "alpha=0.1"), (5.0, "alpha=1 "),
+    for value, shown in [(1e-12, "alpha=0.002"), (float("nan"), "alpha=0.1"), (5.0, "alpha=1,"),
                          (float("inf"), "alpha=0.1"), (0.2, "alpha=0.2")]:
         g("param_alpha").value = 0.1
         g("param_alpha").value = value

@@ -41,7 +41,6 @@ All functions are vectorised and computed in float64.
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
 BECKMANN, GGX = "beckmann", "ggx"
 DISTRIBUTIONS = (BECKMANN, GGX)
@@ -112,6 +111,13 @@ def reflection_pdf(wh: np.ndarray, wo: np.ndarray, alpha: np.ndarray | float,
     return np.where(np.isfinite(p), p, 0.0)
 
 
+def _special():
+    """scipy.special, imported on first use (a render of the course's model never needs it)."""
+    from scipy import special
+
+    return special
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
@@ -153,7 +159,7 @@ def smith_lambda(dist: str, v: np.ndarray, ax, ay) -> np.ndarray:
         return 0.5 * (np.sqrt(1.0 + t) - 1.0)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a = 1.0 / np.sqrt(t)
-        lam = 0.5 * (np.exp(-a * a) / (a * _SQRT_PI) - special.erfc(a))
+        lam = 0.5 * (np.exp(-a * a) / (a * _SQRT_PI) - _special().erfc(a))
     return np.where(a == 0, np.inf, np.where(np.isfinite(lam), np.maximum(lam, 0.0), 0.0))
 
 
@@ -192,12 +198,12 @@ def _beckmann_slope_x(cos_t: np.ndarray, sin_t: np.ndarray, u: np.ndarray) -> np
         mu = np.minimum(np.where(sin_t > 0, cos_t / sin_t, np.inf), 8.0)
 
     def cdf(x):  # unnormalised C(x̃)
-        return cos_t * (0.5 * _SQRT_PI) * special.erfc(-x) + sin_t * 0.5 * np.exp(-x * x)
+        return cos_t * (0.5 * _SQRT_PI) * _special().erfc(-x) + sin_t * 0.5 * np.exp(-x * x)
 
     target = u * cdf(mu)
     lo = np.full_like(mu, -8.0)
     hi = mu.copy()
-    x = np.clip(special.erfinv(2.0 * u - 1.0), lo, hi)  # the normal-incidence solution as the start
+    x = np.clip(_special().erfinv(2.0 * u - 1.0), lo, hi)  # the normal-incidence solution as the start
     for _ in range(48):
         fx = cdf(x) - target
         below = fx < 0
@@ -239,7 +245,7 @@ def sample_visible_normals(dist: str, wi: np.ndarray, u: np.ndarray, ax, ay) -> 
     cos_p = np.where(sin_t > 0, vx / np.where(sin_t > 0, sin_t, 1.0), 1.0)
     sin_p = np.where(sin_t > 0, vy / np.where(sin_t > 0, sin_t, 1.0), 0.0)
     sx = _beckmann_slope_x(vz, sin_t, u[:, 0])
-    sy = special.erfinv(2.0 * u[:, 1] - 1.0)
+    sy = _special().erfinv(2.0 * u[:, 1] - 1.0)
     x = ax * (cos_p * sx - sin_p * sy)
     y = ay * (sin_p * sx + cos_p * sy)
     return _normalize(-x, -y, np.ones_like(x))

@@ -105,7 +105,7 @@ def ndf(ggx, x, y, z, ax, ay):
         d = 1.0 / (PI * ax * ay * (q * q))
     else:
         d = math.exp(-e / z2) / (PI * ax * ay * (z2 * z2))
-    return d if math.isfinite(d) else 0.0
+    return 0.0 if not math.isfinite(d) else d
 
 
 @inline
