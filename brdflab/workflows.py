@@ -395,7 +395,7 @@ def plot(bsdfs, output: str | Path, *, theta: float = 45.0, phi_d: float = 90.0,
 def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | None = None,
              thetas: Sequence[float] | None = None, params: dict | None = None, output: str | Path | None = None,
              plugins: Sequence[str] | str | None = None, progress: Callable[[str], None] | None = None,
-             force: bool = False, cluster=None, furnace_render: str = "normal"):
+             force: bool = False, cluster=None, furnace_render: str | None = None):
     """Run the validation battery (``brdflab validate``): chi-square, consistency, furnace, stability.
 
     Parameters
@@ -413,6 +413,7 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
         The white furnace under path tracing for the page (``quick``, ``normal``, ``full``: sphere size and spp
         from :data:`brdflab.viz.white_furnace.LEVELS`; ``off``: none): a sphere of each BSDF judged, at its
         furnace parameters and α, in a uniform white environment (``Battery.white_furnace``; display only).
+        Default: ``normal`` when ``output`` writes a page, else ``off`` (no page, no picture to render).
 
     Returns
     -------
@@ -435,6 +436,8 @@ def validate(bsdfs=None, *, samples: int = 200_000, alphas: Sequence[float] | No
     from brdflab.errors import clean
     from brdflab.viz.white_furnace import LEVELS, battery_furnace
 
+    if furnace_render is None:
+        furnace_render = "normal" if output is not None else "off"
     if furnace_render != "off" and furnace_render not in LEVELS:
         raise BrdflabError(f"furnace_render: expected off, {', '.join(LEVELS)}; got {clean(furnace_render)}")
     kwargs: dict = {}

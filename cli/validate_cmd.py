@@ -23,10 +23,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per chi-square test, at least 1000 (default 200000)")
     p.add_argument("-o", "--output", type=Path, help="report folder (default: reports/validation)")
     add_force_option(p, "files in the report folder")
-    p.add_argument("--furnace-render", choices=("off", "quick", "normal", "full"), default="normal",
+    p.add_argument("--furnace-render", choices=("off", "quick", "normal", "full"), default=None,
                    help="the white furnace under path tracing on the page: a sphere of each BSDF judged in a "
                         "uniform white environment (quick 32² × 32 spp, normal 64² × 64, full 128² × 256 per "
-                        "sphere; default normal; off: none)")
+                        "sphere; default: quick with --effort quick, else normal; off: none)")
     add_effort_option(p)
     add_cluster_options(p)
     p.set_defaults(func=run)
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     with cluster_from_args(args) as cluster:
         bat = validate(bsdfs, samples=args.samples, alphas=args.alpha, thetas=args.theta, params=params, output=out,
                        force=args.force, plugins=args.plugin, progress=print, cluster=cluster,
-                       furnace_render=args.furnace_render)
+                       furnace_render=args.furnace_render or ("quick" if args.effort == "quick" else "normal"))
     root = index_root(out, args.output is not None, parent_created)
     if root is not None:
         write_index(root)
