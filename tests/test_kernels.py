@@ -483,10 +483,8 @@ def test_frame_to_local_kernel_is_bit_identical(negate):
 
 
 def test_tilted_parallelogram_light_kernel_is_bit_identical(tmp_path):
-    """The bundled scenes' parallelogram lights are all axis-aligned (each edge has two zero coordinates), so
-    a kernel that mixed up the edges' components sampled them right there (a mutation of the light-point
-    kernel survived the scene cases above): a light tilted about two axes and stretched, sampled by both
-    engines from points all around."""
+    """The bundled parallelogram lights are all axis-aligned, so a kernel that mixed up the edges' components
+    sampled them right (a mutant survived the scenes above): a light tilted about two axes, both engines."""
     from brdflab.api import load_scene
     from brdflab.emitter.area import AreaEmitter
     from tests.conftest import CAMERA, QUAD_OBJ, write_scene
