@@ -212,7 +212,10 @@ def _beckmann_slope_x(cos_t: np.ndarray, sin_t: np.ndarray, u: np.ndarray) -> np
         dens = (cos_t - x * sin_t) * np.exp(-x * x)
         with np.errstate(divide="ignore", invalid="ignore"):
             xn = x - fx / dens
-        x = np.where((xn > lo) & (xn < hi), xn, 0.5 * (lo + hi))
+        x_next = np.where((xn > lo) & (xn < hi), xn, 0.5 * (lo + hi))
+        if np.array_equal(x_next, x):  # a fixed point: the further iterations would repeat it exactly
+            break
+        x = x_next
     return x
 
 
