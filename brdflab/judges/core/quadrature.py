@@ -242,7 +242,7 @@ def integrate_sphere_bins(func: Callable[[np.ndarray], np.ndarray], theta_edges:
 
 
 def integrate_bins_finely(func: Callable[[np.ndarray], np.ndarray], theta_edges: np.ndarray, phi_edges: np.ndarray,
-                          bins: np.ndarray, n: int = 1, k: int = 48) -> np.ndarray:
+                          bins: np.ndarray, n: int = 1, k: int = 48, axis: np.ndarray | None = None) -> np.ndarray:
     """∫ func dω over the bins ``bins`` ((m, 2) strip and bin indices), each first cut into a k × k grid.
 
     For bins that the pilot sample says hold mass where the regular cells found none: a lobe far thinner
@@ -262,7 +262,7 @@ def integrate_bins_finely(func: Callable[[np.ndarray], np.ndarray], theta_edges:
         ow.append(np.full(k * k, m))
     if not xa:
         return np.zeros(0)
-    return integrate_rects(sphere_integrand(func), np.concatenate(xa), np.concatenate(xb), np.concatenate(ya),
+    return integrate_rects(sphere_integrand(func, axis), np.concatenate(xa), np.concatenate(xb), np.concatenate(ya),
                            np.concatenate(yb), np.concatenate(ow), len(bins), n)[0]
 
 

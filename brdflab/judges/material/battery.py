@@ -49,6 +49,11 @@ FURNACE_THETAS = tuple(float(t) for t in range(0, 90, 5))
 INSIDE_FURNACE_THETAS = (100.0, 120.0, 150.0, 175.0)
 
 
+def _why(r) -> str:
+    """A control's p-value, and the fault that rejected it whatever the p-value (e.g. ∫ p dω > 1)."""
+    return f"p = {r.p_value:.3g}" + (f" ({r.fault})" if r.fault else "")
+
+
 def _seed(*parts) -> int:
     """A distinct, reproducible seed per test (so tests do not share their random numbers)."""
     return zlib.crc32(repr(parts).encode())
@@ -340,7 +345,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         bat.negative_control.append(r)
         if progress:
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control θ={t:g}: "
-                     f"p = {r.p_value:.3g}")
+                     + _why(r))
     for k, (what, make_control) in enumerate(CONDUCTOR_CONTROLS):
         t = (30.0, 60.0)[k % 2]
         r = c2.bsdf_test(what, make_control(), t, n, seed=_seed("neg-conductor", k, t), params={"theta": t},
@@ -348,7 +353,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
         bat.negative_control.append(r)
         if progress:
             progress(f"{'REJECTED (good)' if not r.passed else 'NOT REJECTED (bad)'}  negative control {what} "
-                     f"θ={t:g}: p = {r.p_value:.3g}")
+                     f"θ={t:g}: " + _why(r))
     if any(e.flag("has_transmission") for e in entries):
         from brdflab.judges.material.transmission_controls import run_controls
 

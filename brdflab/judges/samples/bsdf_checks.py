@@ -309,7 +309,7 @@ def _check_group(s: Samples, idx: np.ndarray, name: str, kind: str, ref, seed: i
             ours = b.pdf(wi_all, wo_n) if s.pdf is not None else None
         g.chi2 = c2.directions_test(f"{name} (file)", obs, len(idx), pdf_fn, pilot, seed=seed,
                                     params={"wi": tuple(np.round(wi1, 6))}, threshold=thr,
-                                    mix_rng=np.random.default_rng(s_mix), split_horizon=both)
+                                    mix_rng=np.random.default_rng(s_mix), split_horizon=both, pilot_total=n_pilot)
         cmp = valid & ((wo_n[:, 2] > 0) | both) if kind == "bsdf" else valid
         p_true = None  # the true density of the sampled directions at the compared samples, when known
         if s.pdf is not None and cmp.any():
