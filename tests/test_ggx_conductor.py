@@ -167,13 +167,13 @@ def test_the_course_model_is_unchanged_to_the_bit():
 
 def test_non_course_instances_do_not_run_the_beckmann_kernel():
     """GGX, anisotropic, visible-normal and η/k instances give the NumPy result through either engine: the kernel
-    covers all but Beckmann with visible normals, which falls back to NumPy."""
+    covers them all (Beckmann's visible slopes solved by NumPy, see brdflab.kernels.bsdf)."""
     if not kernels._numba_available():
         pytest.skip("numba is not installed")
     from brdflab.kernels import bsdf as kb
 
     assert kb._covered(RoughConductor(distribution="ggx", alpha_v=0.2, material="Au"))
-    assert not kb._covered(RoughConductor(distribution="beckmann", sample_visible=True))
+    assert kb._covered(RoughConductor(distribution="beckmann", sample_visible=True))
     rng = np.random.default_rng(7)
     wi = rng.normal(size=(2000, 3))
     wi /= np.linalg.norm(wi, axis=1)[:, None]

@@ -32,8 +32,8 @@ Masking-Shadowing Function", eqs. 71–72, 80–86; PBR-3 eqs. 8.10–8.12, 8.16
   projected disk, unstretch). Beckmann: Heitz & d'Eon 2014 ("Importance Sampling Microfacet-Based BSDFs using
   the Distribution of Visible Normals", §4 and appendix): stretch ω_i to α = 1, sample the slope x̃ with density
   ∝ (cos θ − x̃ sin θ) e^(−x̃²) on x̃ < cot θ by inverting its CDF
-  C(x̃) ∝ cos θ (√π/2) erfc(−x̃) + sin θ e^(−x̃²)/2 (safeguarded Newton, 48 steps), ỹ = erfinv(2ξ2 − 1), rotate by
-  φ_i, unstretch, ω_h = normalize(−x̃, −ỹ, 1).
+  C(x̃) ∝ cos θ (√π/2) erfc(−x̃) + sin θ e^(−x̃²)/2 (safeguarded Newton to rounding, at most 48 steps),
+  ỹ = erfinv(2ξ2 − 1), rotate by φ_i, unstretch, ω_h = normalize(−x̃, −ỹ, 1).
 
 All functions are vectorised and computed in float64.
 """
@@ -45,6 +45,7 @@ import numpy as np
 BECKMANN, GGX = "beckmann", "ggx"
 DISTRIBUTIONS = (BECKMANN, GGX)
 _SQRT_PI = float(np.sqrt(np.pi))
+_EPS = float(np.finfo(np.float64).eps)
 
 
 def tan2_theta(cos_t: np.ndarray) -> np.ndarray:
@@ -193,40 +194,66 @@ def sample_normals(dist: str, u: np.ndarray, ax, ay) -> np.ndarray:
 
 
 def _beckmann_slope_x(cos_t: np.ndarray, sin_t: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """The slope x̃ < cot θ with density ∝ (cos θ − x̃ sin θ) e^(−x̃²) at CDF value ``u`` (safeguarded Newton)."""
+    """The slope x̃ < cot θ with density ∝ (cos θ − x̃ sin θ) e^(−x̃²) at CDF value ``u`` (safeguarded Newton).
+
+    Each element stops when C(x̃) meets the target to its rounding or the step is at the rounding of x̃ (then
+    Newton may only alternate between neighbours), at most 48 steps; only the elements still moving are
+    computed. Elements with cos θ ≤ 0 (ω_i below the surface: the sample fails) keep the start value.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         mu = np.minimum(np.where(sin_t > 0, cos_t / sin_t, np.inf), 8.0)
 
-    def cdf(x):  # unnormalised C(x̃)
-        return cos_t * (0.5 * _SQRT_PI) * _special().erfc(-x) + sin_t * 0.5 * np.exp(-x * x)
+    def cdf(x, c, s):  # unnormalised C(x̃)
+        return c * (0.5 * _SQRT_PI) * _special().erfc(-x) + s * 0.5 * np.exp(-x * x)
 
-    target = u * cdf(mu)
+    target = u * cdf(mu, cos_t, sin_t)
     lo = np.full_like(mu, -8.0)
     hi = mu.copy()
     x = np.clip(_special().erfinv(2.0 * u - 1.0), lo, hi)  # the normal-incidence solution as the start
+    act = np.flatnonzero(cos_t > 0)
     for _ in range(48):
-        fx = cdf(x) - target
-        below = fx < 0
-        lo = np.where(below, x, lo)
-        hi = np.where(below, hi, x)
-        dens = (cos_t - x * sin_t) * np.exp(-x * x)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xn = x - fx / dens
-        x_next = np.where((xn > lo) & (xn < hi), xn, 0.5 * (lo + hi))
-        if np.array_equal(x_next, x):  # a fixed point: the further iterations would repeat it exactly
+        if not len(act):
             break
-        x = x_next
+        xa, c, s = x[act], cos_t[act], sin_t[act]
+        cx = cdf(xa, c, s)
+        fx = cx - target[act]
+        below = fx < 0
+        la = lo[act] = np.where(below, xa, lo[act])
+        ha = hi[act] = np.where(below, hi[act], xa)
+        dens = (c - xa * s) * np.exp(-xa * xa)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = xa - fx / dens
+        # Newton inside the bracket [lo, hi] (closed: at the root itself it stays there), else bisection
+        x_next = np.where((xn >= la) & (xn <= ha), xn, 0.5 * (la + ha))
+        x[act] = x_next
+        # Done: C(x̃) equals the target to its rounding, or the step is an ulp or two of x̃
+        done = (np.abs(fx) <= 4.0 * _EPS * cx) | (np.abs(x_next - xa) <= 4.0 * _EPS * np.maximum(np.abs(xa), 1.0))
+        act = act[~done]
     return x
+
+
+def _stretched(wi: np.ndarray, ax, ay) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ω_i stretched to α = 1: normalize(α_u x, α_v y, z)."""
+    vx, vy, vz = ax * wi[:, 0], ay * wi[:, 1], wi[:, 2]
+    vn = np.sqrt(vx * vx + vy * vy + vz * vz)
+    return vx / vn, vy / vn, vz / vn
+
+
+def beckmann_visible_slopes(wi: np.ndarray, u: np.ndarray, ax, ay) -> tuple[np.ndarray, np.ndarray]:
+    """The slopes (x̃, ỹ) of Beckmann's visible normals for ω_i stretched by (α_u, α_v), before the rotation by
+    φ_i and the scaling by α (Heitz & d'Eon 2014; module docstring). The compiled engine takes them from here:
+    x̃ is the root of a CDF evaluated with SciPy's erfc, which the C library's differs from by an ulp."""
+    vx, vy, vz = _stretched(wi, ax, ay)
+    return _beckmann_slope_x(vz, np.sqrt(vx * vx + vy * vy), u[:, 0]), _special().erfinv(2.0 * u[:, 1] - 1.0)
 
 
 def sample_visible_normals(dist: str, wi: np.ndarray, u: np.ndarray, ax, ay) -> np.ndarray:
     """Normals ω_h with density D_ωi(ω_h) = G1(ω_i) max(0, ω_i·ω_h) D(ω_h) / cos θ_i (module docstring).
 
-    ``wi`` must have z > 0 (rows with z ≤ 0 return arbitrary unit vectors or NaN: the caller's sample fails).
+    ``wi`` must have z > 0 (rows with z ≤ 0 return arbitrary unit vectors (GGX) or NaN (Beckmann): the caller's
+    sample fails).
     """
-    vx, vy, vz = ax * wi[:, 0], ay * wi[:, 1], wi[:, 2]
-    vn = np.sqrt(vx * vx + vy * vy + vz * vz)
-    vx, vy, vz = vx / vn, vy / vn, vz / vn  # ω_i stretched to α = 1
+    vx, vy, vz = _stretched(wi, ax, ay)
     lensq = vx * vx + vy * vy
     if dist == GGX:  # Heitz 2018, listing 3
         inv = np.where(lensq > 0, 1.0 / np.sqrt(np.where(lensq > 0, lensq, 1.0)), 0.0)
@@ -247,11 +274,10 @@ def sample_visible_normals(dist: str, wi: np.ndarray, u: np.ndarray, ax, ay) -> 
     sin_t = np.sqrt(lensq)
     cos_p = np.where(sin_t > 0, vx / np.where(sin_t > 0, sin_t, 1.0), 1.0)
     sin_p = np.where(sin_t > 0, vy / np.where(sin_t > 0, sin_t, 1.0), 0.0)
-    sx = _beckmann_slope_x(vz, sin_t, u[:, 0])
-    sy = _special().erfinv(2.0 * u[:, 1] - 1.0)
+    sx, sy = beckmann_visible_slopes(wi, u, ax, ay)
     x = ax * (cos_p * sx - sin_p * sy)
     y = ay * (sin_p * sx + cos_p * sy)
-    return _normalize(-x, -y, np.ones_like(x))
+    return _normalize(np.where(vz > 0, -x, np.nan), -y, np.ones_like(x))  # ω_i below: NaN, the sample fails
 
 
 def visible_pdf(dist: str, wi: np.ndarray, wh: np.ndarray, wo: np.ndarray, ax, ay,

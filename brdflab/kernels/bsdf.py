@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from brdflab.bsdf import microfacet as mf
 from brdflab.bsdf.base import BSDFSample, uv_or_zeros
 from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import BOOL, F8, I8, IDX, IN1, IN2, OUT1, OUT2, inline, kernel
@@ -23,6 +24,7 @@ from brdflab.kernels.scalar import (
     INV_PI,
     TWO_PI,
     beckmann_d,
+    beckmann_lambda,
     cos_over_pdf,
     finite_or_zero,
     fresnel_conductor,
@@ -45,6 +47,7 @@ _NO_INDEX = np.zeros(0, np.int64)
 _NO_U = np.zeros((0, 3))
 _NO_LG = np.zeros(0)
 _NO_ETA = np.ones(3)
+_NO_SLOPES = np.zeros((0, 2))
 
 
 def _nan_or(x: float | None) -> float:
@@ -167,6 +170,24 @@ def _ggx_visible_normal(wix, wiy, wiz, u0, u1, ax, ay):
 
 
 @inline
+def _beckmann_visible_normal(wix, wiy, wiz, sx, sy, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.sample_visible_normals` of Beckmann (Heitz & d'Eon 2014) for one sample,
+    from its slopes (x̃, ỹ) of :func:`~brdflab.bsdf.microfacet.beckmann_visible_slopes` (computed by NumPy)."""
+    vx, vy, vz = ax * wix, ay * wiy, wiz
+    vn = math.sqrt(vx * vx + vy * vy + vz * vz)
+    vx, vy, vz = vx / vn, vy / vn, vz / vn
+    if not vz > 0.0:  # ω_i below the surface: the sample fails (as the NumPy function's NaN rows)
+        return math.nan, math.nan, math.nan
+    sin_t = math.sqrt(vx * vx + vy * vy)
+    cos_p, sin_p = 1.0, 0.0
+    if sin_t > 0.0:
+        cos_p, sin_p = vx / sin_t, vy / sin_t
+    x = ax * (cos_p * sx - sin_p * sy)
+    y = ay * (sin_p * sx + cos_p * sy)
+    return _normalized(-x, -y, 1.0)
+
+
+@inline
 def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, ax, ay, iso, ggx, vis, use_eta, eta, kk, r0, k, need_f,
                      need_pdf, out, i):
     """f (into ``out[i]``) and returns p of one query (:meth:`RoughConductor._terms`): the course's Beckmann D
@@ -195,18 +216,20 @@ def _conductor_point(wix, wiy, wiz, wox, woy, woz, a, ax, ay, iso, ggx, vis, use
     if need_pdf and ci > 0.0 and okh and hi > 0.0:
         if vis:
             oh = abs(wox * hx + woy * hy + woz * hz)
-            p = finite_or_zero(d * max(hi, 0.0) / ((1.0 + ggx_lambda(wix, wiy, wiz, ax, ay)) * ci * 4.0 * oh))
+            lam = ggx_lambda(wix, wiy, wiz, ax, ay) if ggx else beckmann_lambda(wix, wiy, wiz, ax, ay)
+            p = finite_or_zero(d * max(hi, 0.0) / ((1.0 + lam) * ci * 4.0 * oh))
         else:
             p = _reflection_pdf(hx, hy, hz, wox, woy, woz, d)
     return p
 
 
 @kernel(I8, BOOL, BOOL, IN2, OUT2, IN2, IN1, IN2, I8, IDX, IN1, I8, IDX, BOOL, BOOL, BOOL, BOOL, F8, F8, IN1, IN1,
-        OUT2, OUT1, OUT2)
+        IN2, OUT2, OUT1, OUT2)
 def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_mode, al_idx, iso, ggx, vis, use_eta,
-              au, av, eta, kk, f, pdf, weight):
+              au, av, eta, kk, slopes, f, pdf, weight):
     """``roughconductor``: Beckmann (the course's, or anisotropic) or GGX D, Schlick or (η, k) F, Smith G1;
-    D cos θ_h sampling (the Beckmann warp, or stretched slopes) or GGX visible normals, then reflection."""
+    D cos θ_h sampling (the Beckmann warp, or stretched slopes) or visible normals (Beckmann's from the
+    ``slopes`` NumPy solved), then reflection."""
     for i in range(wi.shape[0]):
         a = al[_row(al_mode, al_idx, i)]
         ax = a if math.isnan(au) else au
@@ -215,8 +238,10 @@ def conductor(op, need_f, need_pdf, wi, wo, u, lg, r0, r0_mode, r0_idx, al, al_m
         if op == SAMPLE:
             if iso and not vis:
                 hx, hy, hz = _beckmann_normal(lg[i], u[i, 1], a)
-            elif vis:
+            elif vis and ggx:
                 hx, hy, hz = _ggx_visible_normal(wix, wiy, wiz, u[i, 0], u[i, 1], ax, ay)
+            elif vis:
+                hx, hy, hz = _beckmann_visible_normal(wix, wiy, wiz, slopes[i, 0], slopes[i, 1], ax, ay)
             else:
                 hx, hy, hz = _slope_normal(ggx, 0.0 if ggx else lg[i], u[i, 0], u[i, 1], ax, ay)
             ox, oy, oz = _reflect(wix, wiy, wiz, hx, hy, hz)
@@ -330,9 +355,14 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
     elif name == "roughconductor":
         eta = _NO_ETA if bsdf.eta is None else bsdf.eta
         kk = _NO_ETA if bsdf.k is None else bsdf.k
+        slopes = _NO_SLOPES
+        if op == SAMPLE and bsdf.sample_visible and bsdf.distribution == "beckmann":
+            # Beckmann's visible slope is the root of a CDF of erfc, where SciPy's and the C library's erfc differ
+            # by an ulp and the root amplifies it (to 1e-10 at α = 10⁻³): NumPy solves it, the kernel does the rest.
+            slopes = np.stack(mf.beckmann_visible_slopes(wi, u, *bsdf.alphas(uv, n)), axis=1)
         conductor(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.R0, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
                   bsdf.isotropic_beckmann, bsdf.distribution == "ggx", bsdf.sample_visible, bsdf.eta is not None,
-                  _nan_or(bsdf.alpha_u), _nan_or(bsdf.alpha_v), eta, kk, f, pdf, weight)
+                  _nan_or(bsdf.alpha_u), _nan_or(bsdf.alpha_v), eta, kk, slopes, f, pdf, weight)
     else:
         substrate(op, need_f, need_pdf, wi, wo, u, lg, *_slot(bsdf.kd, uv, n, False), *_slot(bsdf.alpha, uv, n, True),
                   LOBES.get(bsdf.lobe, 0), bsdf.ext_ior, bsdf.int_ior, bsdf.diffuse_scale, f, pdf, weight)
@@ -340,11 +370,9 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
 
 
 def _covered(bsdf) -> bool:
-    """False for a roughconductor outside the kernel's models (Beckmann with visible-normal sampling: its slope
-    inversion stays in NumPy): the NumPy method runs instead (the twin returns ``NotImplemented``)."""
-    if type(bsdf).kernel != "roughconductor":
-        return True
-    return not (bsdf.distribution == "beckmann" and bsdf.sample_visible)
+    """False for an instance outside the kernel's models: the NumPy method runs instead (the twin returns
+    ``NotImplemented``). Every roughconductor (Beckmann or GGX, visible normals or not) is covered."""
+    return True
 
 
 def eval_bsdf(bsdf, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:

@@ -13,6 +13,7 @@ from brdflab.kernels.jit import inline
 PI = math.pi
 INV_PI = 1.0 / math.pi
 TWO_PI = 2.0 * math.pi
+SQRT_PI = math.sqrt(math.pi)  # the float64 of brdflab.bsdf.microfacet._SQRT_PI (np.sqrt(np.pi))
 
 
 @inline
@@ -146,3 +147,14 @@ def fresnel_conductor(c, eta, k):
     rp = rs * (t3 - t4) / (t3 + t4)
     f = 0.5 * (rs + rp)
     return min(max(f, 0.0), 1.0) if math.isfinite(f) else 1.0
+
+
+@inline
+def beckmann_lambda(x, y, z, ax, ay):
+    """:func:`brdflab.bsdf.microfacet.smith_lambda` of Beckmann (Heitz 2014, eq. 86) for one direction."""
+    a = 1.0 / math.sqrt(inv_a2(x, y, z, ax, ay))
+    if a == 0.0:
+        return math.inf
+    lam = 0.5 * (math.exp(-a * a) / (a * SQRT_PI) - math.erfc(a))
+    return max(lam, 0.0) if math.isfinite(lam) else 0.0
+
