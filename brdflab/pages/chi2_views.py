@@ -178,6 +178,16 @@ def _mu_axis(ax, view: View) -> None:
         ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _: "1" if y >= 1 else f"1−{1 - y:.1e}"))
 
 
+def _distinct_labels(values: np.ndarray) -> list[str]:
+    """Tick labels with the fewest significant digits (3 to 8) that tell distinct values apart (a thin streak's
+    strips span hundredths of a degree)."""
+    for digits in range(3, 9):
+        labels = [f"{v:.{digits}g}" for v in values]
+        if len(set(labels)) == len(set(values.tolist())):
+            break
+    return labels
+
+
 def bin_maps(fig, axes, obs: np.ndarray, exp: np.ndarray, theta_edges: np.ndarray, titles: tuple[str, str]) -> None:
     """Observed and expected values of a chi-square test on its own bins (θ strips × φ bins, both pilot
     quantiles) on ``axes[0]`` and ``axes[1]`` with one colour scale and one colour bar."""
@@ -189,7 +199,7 @@ def bin_maps(fig, axes, obs: np.ndarray, exp: np.ndarray, theta_edges: np.ndarra
         im = ax.imshow(data, origin="lower", aspect="auto", extent=(0, 360, 0, n_t), cmap="viridis", vmin=0,
                        vmax=vmax, interpolation="nearest")
         ax.set_yticks(ticks)
-        ax.set_yticklabels([f"{edges[t]:.3g}" for t in ticks], fontsize=7)
+        ax.set_yticklabels(_distinct_labels(edges[ticks]), fontsize=7)
         ax.set_xticks([])  # the test's φ bins are quantiles of the pilot inside each θ strip, not degrees
         ax.tick_params(labelsize=7)
         ax.set_xlabel("φ bins (pilot quantiles within each θ strip)", fontsize=8)
@@ -220,8 +230,11 @@ def figure(result: c2.Chi2Result, view: View, negative: bool = False):
         fig.subplots_adjust(left=0.06, right=0.97, top=0.92, bottom=0.07, wspace=0.32, hspace=0.3)
         top, bottom = list(axes[0]), list(axes[1])
     if top:
+        ax_ = result.axis
+        about = "" if ax_ is None or (ax_[0] == 0 and ax_[1] == 0) else \
+            f" (θ about ({ax_[0]:.2g}, {ax_[1]:.2g}, {ax_[2]:.2g}))"
         bin_maps(fig, top, result.observed, result.expected, result.theta_edges,
-                 ("test bins: observed counts", "test bins: expected counts"))
+                 ("test bins: observed counts" + about, "test bins: expected counts" + about))
         ax = top[2]
         ax.scatter(view.points[:, 0], view.points[:, 1], s=1.2, alpha=0.5, color="#333", linewidths=0)
         ax.set_xlim(view.x_edges[0], view.x_edges[-1])
