@@ -230,3 +230,17 @@ def test_metal_colours_are_the_conversion_of_the_tables():
     assert np.array_str(np.array([0.2])) == "[0.2]"  # importing colour-science left NumPy's print options alone
     r_au = fresnel_conductor(np.array([1.0]), *METALS_RGB["Au"])[0]
     assert r_au[0] > r_au[1] > r_au[2]  # gold reflects red more than blue
+
+
+def test_furnace_of_a_conductor_with_eta_k_or_material_runs_with_r0_1():
+    """The furnace's R0 = 1 replaces a conductor's η/k/material (they are alternatives to R0): validate with
+    material=Au raised 'R0 and material are alternatives' at every furnace point before."""
+    from brdflab.judges.material.entries import furnace_parameters, resolve_bsdfs
+
+    e = resolve_bsdfs(["roughconductor"])[0]
+    prm = furnace_parameters(e, {"material": "Au", "distribution": "ggx", "eta": "1,1,1", "k": "2,2,2"}, {})
+    assert prm == {"distribution": "ggx", "R0": 1.0}
+    from brdflab.judges.material.furnace import furnace_point
+
+    r = furnace_point(e.make(0.3, prm), theta=30.0, samples=5000)
+    assert r.passed, r.message

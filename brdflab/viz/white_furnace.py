@@ -297,7 +297,7 @@ def battery_materials(bsdfs=None, params: dict | None = None, alphas=None, make=
     from brdflab.builtin_types import is_builtin_class
     from brdflab.errors import clean
     from brdflab.judges.core.guard import CheckedBSDF, SceneCheckedBSDF
-    from brdflab.judges.material.entries import FURNACE_ALPHAS, furnace_name, resolve_bsdfs
+    from brdflab.judges.material.entries import FURNACE_ALPHAS, furnace_name, furnace_parameters, resolve_bsdfs
 
     params = dict(params or {})
     objs, labels, alpha_of, failed = [], [], [], []
@@ -305,7 +305,7 @@ def battery_materials(bsdfs=None, params: dict | None = None, alphas=None, make=
         if not e.checks:
             continue
         for point in e.grid(params):
-            prm, name = {**params, **point, **e.furnace_params}, furnace_name(e, point)
+            prm, name = furnace_parameters(e, params, point), furnace_name(e, point)
             for a in (tuple(alphas or FURNACE_ALPHAS) if e.takes_alpha else (None,)):
                 label = name if a is None else f"{name} alpha={a:g}"
                 try:

@@ -37,6 +37,7 @@ from brdflab.judges.material.entries import (  # noqa: F401 (re-exported: the mo
     _from_registry,
     _takes_alpha,
     furnace_name,
+    furnace_parameters,
     has_alpha,
     make_named_bsdf,
     resolve_bsdfs,
@@ -376,7 +377,7 @@ def run_battery(n: int = 200_000, bsdfs=None, warp_names: list[str] | None = Non
             progress(r.message)
     for e in checked_entries:
         for point in e.grid(params):
-            prm = {**params, **point, **e.furnace_params}
+            prm = furnace_parameters(e, params, point)
             fname = furnace_name(e, point)
             for a in (furnace_alphas if e.takes_alpha else (None,)):
                 try:

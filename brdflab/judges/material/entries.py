@@ -192,6 +192,22 @@ def furnace_name(entry: BSDFEntry, point: dict) -> str:
                                    for k, v in {**point, **entry.furnace_params}.items())])
 
 
+#: Parameters that a furnace parameter replaces: R0 = 1 (Schlick) is the alternative of a conductor's η, k or material.
+_FURNACE_REPLACES = {"R0": ("eta", "k", "material")}
+
+
+def furnace_parameters(entry: BSDFEntry, params: dict, point: dict) -> dict:
+    """The furnace's parameters: the user's, the sweep point, then the entry's furnace parameters (the most
+    reflective setting: R0 = 1, albedo 1), which drop the user's alternatives to them (R0 = 1 replaces a
+    conductor's η, k or material: F = 1 bounds every Fresnel term, so the furnace's energy test stays the
+    strictest)."""
+    prm = {**params, **point}
+    for key in entry.furnace_params:
+        for alt in _FURNACE_REPLACES.get(key, ()):
+            prm.pop(alt, None)
+    return {**prm, **entry.furnace_params}
+
+
 def _builtin(name: str) -> BSDFEntry:
     furn = {"diffuse": {"albedo": 1.0}, "roughconductor": {"R0": 1.0}, "roughsubstrate": {"kd": 1.0}}
     return BSDFEntry(name, lambda a, p: make_named_bsdf(name, a, p), takes_alpha=has_alpha(name),
