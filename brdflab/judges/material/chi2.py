@@ -20,7 +20,7 @@ For a sampler of directions with claimed solid-angle density p (a BSDF for one �
    horizon) is then resolved. The pilot only guides where to look; the masses are still integrals of p. The
    summed |8-point − 4-point| differences are reported as the integration error. **Other axes**: when the
    bins about the normal still miss mass the pilot saw (∫ p below the pilot's valid fraction by more than
-   2 binomial σ, or suspicious bins), bins about x, y and the pilot's mean direction are built the same way and
+   one binomial σ), bins about x, y and the pilot's mean direction are built the same way and
    the axis whose ∫ p is largest (by more than :data:`FRAME_GAIN`) is used (:func:`best_frame`): a thin streak
    curved across the bins about the normal (α_u = 10⁻³, α_v = 0.25 at θ_i = 85°: ω_o·x = −ω_i·x, 1 % missed)
    runs along a coordinate line about x. The choice sees the pilot and p only, never the tested sample.
@@ -227,7 +227,7 @@ def directions_test(name: str, wo: np.ndarray, n_total: int, pdf: Callable[[np.n
     wo = np.asarray(wo, dtype=float).reshape(-1, 3)
     pilot_valid = len(pilot) / max(pilot_total or len(pilot), 1)
     axis, te, pe, mass, merr, _ = best_frame(both, len(pilot), pilot_valid, pdf, nt, nph, split_horizon,
-                                               shape is None, n_total)
+                                             shape is None, n_total, shape is None)
     th, ph = to_angles(wo, axis)
     obs = bin_counts(th, ph, te, pe)
     integral, ierr = float(mass.sum()), float(merr.sum())
@@ -256,11 +256,12 @@ FRAME_GAIN = 5e-4
 _OTHER_AXES = (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
 
 
-def _frame_bins(angles_of, axis, n_pilot, pdf, nt, nph, split_horizon, grazing, n_total, valid):
+def _frame_bins(angles_of, axis, n_pilot, pdf, nt, nph, split_horizon, grazing, n_total, valid, support=True):
     """Bins about ``axis`` from the pilot (+ uniform mix), their ∫ p (fine re-integration of the bins the pilot
     says are under-predicted, at most :data:`FINE_BINS_MAX`) and the pilot's counts."""
     pt, pp = angles_of(axis)
-    te, pe = pilot_bins(pt, pp, nt, nph, split_horizon, grazing=grazing)
+    support = (float(pt[:n_pilot].min()), float(pt[:n_pilot].max())) if n_pilot and support else None
+    te, pe = pilot_bins(pt, pp, nt, nph, split_horizon, grazing=grazing, support=support)
     mass, merr = integrate_sphere_bins(pdf, te, pe, n_total, axis)
     # Bins where the (independent) pilot found clearly more samples than the quadrature's mass predicts are
     # integrated again on a fine grid: a lobe thinner than the Gauss nodes' spacing (see integrate_bins_finely).
@@ -276,32 +277,35 @@ def _frame_bins(angles_of, axis, n_pilot, pdf, nt, nph, split_horizon, grazing, 
     return te, pe, mass, merr, len(suspicious)
 
 
-def best_frame(pilot_mix, n_pilot, valid, pdf, nt, nph, split_horizon, grazing, n_total):
-    """The bins' axis: the normal, unless its quadrature misses mass the pilot saw; then the axis among the
-    normal, x, y and the pilot's mean direction whose bins' ∫ p is largest.
+def best_frame(pilot_mix, n_pilot, valid, pdf, nt, nph, split_horizon, grazing, n_total, support=True):
+    """The bins' axis: the normal, unless its ∫ p falls short of the pilot's valid fraction by more than one
+    binomial σ of the pilot (two of the tested sample, four times the pilot's size; and :data:`FRAME_GAIN`);
+    then the axis among the normal, x, y and the pilot's mean direction whose bins' ∫ p is largest.
 
     A lobe thinner than the Gauss nodes' spacing and curved across the (θ, φ) bins about the normal (an
     anisotropic streak, α_u/α_v = 250: the directions ω_o·x = −ω_i·x) is missed there (∫ p 1 % short, its
     error estimate 1e-5), but runs along one coordinate line about another axis and is integrated exactly.
     The choice uses the pilot and the claimed pdf only, never the tested sample, so it cannot bias the test;
     a quadrature of p ≥ 0 that misses a peak only lowers ∫ p, hence the largest. Returns
-    ``(axis, theta_edges, phi_edges, mass, error, n_suspicious)``.
+    ``(axis, theta_edges, phi_edges, mass, error, n_suspicious)``. ``grazing``: the thin strips below the
+    horizon (about the normal); ``support``: the pilot's extreme θ as edges (:func:`pilot_bins`); both only
+    with the automatic bin shape (an explicit shape gets exactly that shape).
     """
     def angles_of(axis):
         return to_angles(pilot_mix, axis)
 
     z = np.array([0.0, 0.0, 1.0])
     te, pe, mass, merr, n_susp = _frame_bins(angles_of, z, n_pilot, pdf, nt, nph, split_horizon, grazing,
-                                             n_total, valid)
+                                             n_total, valid, support)
     se = np.sqrt(max(valid * (1.0 - valid), 1e-12) / max(n_pilot / max(valid, 1e-9), 1.0))
-    if n_pilot < 100 or (n_susp == 0 and mass.sum() >= valid - max(2.0 * se, FRAME_GAIN)):
+    if n_pilot < 100 or mass.sum() >= valid - max(se, FRAME_GAIN):
         return z, te, pe, mass, merr, n_susp
     best = (float(mass.sum()), z, te, pe, mass, merr, n_susp)
     mean = pilot_mix[:n_pilot].mean(axis=0)
     axes = list(_OTHER_AXES) + ([mean / np.linalg.norm(mean)] if np.linalg.norm(mean) > 0.2 else [])
     for axis in axes:
         te, pe, mass, merr, n_susp = _frame_bins(angles_of, axis, n_pilot, pdf, nt, nph, split_horizon, False,
-                                                 n_total, valid)
+                                                 n_total, valid, support)
         if mass.sum() > best[0] + max(FRAME_GAIN, 3.0 * (best[5].sum() + merr.sum())):
             best = (float(mass.sum()), axis, te, pe, mass, merr, n_susp)
     return best[1:]
