@@ -139,7 +139,7 @@ def notes(rel: float, labels: list[str], rho: np.ndarray | None, data_aniso: flo
     out = []
     if rel > POOR_FIT:
         out.append(f"poor fit: the model misses {100 * rel:.1f} % of the data's cosine-weighted f (above "
-                   f"{100 * POOR_FIT:g} %); the standard errors assume a model that fits")
+                   f"{100 * POOR_FIT:g} %): its parameters are the closest this model gets, not the material's")
     if data_aniso - model_aniso > MISSED_ANISOTROPY:
         out.append(f"the data change with the half vector's azimuth φ_h by {100 * data_aniso:.1f} %, the fitted "
                    f"model by {100 * model_aniso:.1f} %: the data are anisotropic (fit alpha_u, alpha_v)")
