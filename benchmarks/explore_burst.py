@@ -96,7 +96,8 @@ def main() -> None:
                 keys.perform()
                 t0 = time.monotonic()
                 last = float(drv.execute_script(MODEL_VALUE_JS, "param_alpha"))
-                _wait(lambda last=last: f", alpha={last:g} " in drv.execute_script(STATUS_JS))
+                # α is followed by a space (the last parameter) or a comma (distribution … follow it)
+                _wait(lambda last=last: any(f", alpha={last:g}{c}" in drv.execute_script(STATUS_JS) for c in " ,"))
                 print(f"round {r} presses {n:2d}: shown after {time.monotonic() - t0:.2f} s, {runs() - r0} update(s); "
                       f"load {os.getloadavg()[0]:.1f}", flush=True)
                 time.sleep(4)

@@ -23,6 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "or f·cos·cos")
     p.add_argument("--fix", action="append", default=[], metavar="K=V", help="hold a parameter at a value "
                    "(repeatable), e.g. --fix intIOR=1.5")
+    p.add_argument("--free", action="append", default=None, metavar="K,K", help="the parameters to fit "
+                   "(comma-separated, repeatable; default: the model's own, roughconductor: R0,alpha), e.g. "
+                   "--free alpha_u,alpha_v,eta,k --fix distribution=ggx")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("-o", "--output", type=Path, help="folder for fit.html, fit.json and the slices "
                    "(default: fit-<stem>/ beside the measurement)")
@@ -37,8 +40,8 @@ def run(args: argparse.Namespace) -> int:
     from brdflab.fitting import fit
 
     out = args.output or args.measured.parent / f"fit-{args.measured.stem}"
-    res = fit(args.measured, args.model, args.loss, fix=args.fix, effort=args.effort or "normal", output=out,
-              force=args.force, plugins=args.plugin)
+    res = fit(args.measured, args.model, args.loss, fix=args.fix, free=args.free, effort=args.effort or "normal",
+              output=out, force=args.force, plugins=args.plugin)
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
     else:

@@ -175,3 +175,35 @@ def test_a_burst_of_40_key_presses_ends_at_the_last_value(tmp_path):
         assert float(driver.execute_script(MODEL_VALUE_JS, "param_alpha")) == last  # no straggler moved it
         runs = int(final.split("hidden>")[1].split("<")[0])
         assert runs <= 12, f"{runs} updates for 40 key presses (coalescing failed)"
+
+
+def test_distribution_dropdown_and_anisotropic_alpha_round_trip(tmp_path):
+    """Issue 45's widgets in the browser: the distribution dropdown switches to GGX (and turns visible-normal
+    sampling on), unlinking α shows α_u/α_v sliders, a typed α_v makes the lobe anisotropic (the plots change),
+    and the Fresnel dropdown gives a metal's η, k."""
+    with _explorer(tmp_path) as driver:
+        driver.get(driver.url_served)
+        first = _wait(lambda: "peak f" in (s := driver.execute_script(STATUS_JS)) and s, 90, "the first plots")
+        assert "distribution=beckmann" in first
+        assert driver.execute_script("return Bokeh.documents[0].get_model_by_name('param_distribution').options"
+                                     ) == ["beckmann", "ggx"]
+        driver.execute_script(SET_JS, "param_distribution", "ggx")
+        ggx = _wait(lambda: "distribution=ggx" in (s := driver.execute_script(STATUS_JS)) and "peak f" in s and s,
+                    60, "the GGX lobe")
+        assert "sample_visible=True" in ggx
+        shown = driver.execute_script(SLIDERS_JS)
+        displayed = [t for t, h in shown if h.is_displayed()]
+        assert "alpha" in [t.split(":")[0].strip() for t in displayed] and not any("alpha_v" in t for t in displayed)
+        driver.execute_script("Bokeh.documents[0].get_model_by_name('param_alpha_link').active = false")
+        _wait(lambda: "alpha_u=" in driver.execute_script(STATUS_JS), 60, "α_u and α_v in the model")
+        _wait(lambda: any("alpha_v" in t and h.is_displayed() for t, h in driver.execute_script(SLIDERS_JS)), 30,
+              "the α_u/α_v sliders shown")
+        shot = driver.get_screenshot_as_png()
+        driver.execute_script(SET_JS, "typed_param_alpha_v", "0.5")
+        aniso = _wait(lambda: "alpha_v=0.5" in (s := driver.execute_script(STATUS_JS)) and "peak f" in s and s, 60,
+                      "the anisotropic lobe")
+        assert aniso.split("peak f")[1] != ggx.split("peak f")[1]  # another peak and albedo
+        time.sleep(0.5)
+        assert driver.get_screenshot_as_png() != shot
+        driver.execute_script(SET_JS, "param_fresnel", "Au")
+        _wait(lambda: "material=Au" in driver.execute_script(STATUS_JS), 60, "gold")

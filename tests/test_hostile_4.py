@@ -250,9 +250,11 @@ def test_bench_says_why_a_run_failed_in_one_line(tmp_path, capsys):
 def test_fit_bounds_by_parameter_name():
     """The bounds fit() gives each parameter (module docstring: α ∈ [10⁻³, 1], reflectances and colours in
     [0, 1], indices of refraction in [1, 3], anything else in [0, 10·default], at least [0, 1])."""
-    from brdflab.fitting import _bounds
+    from brdflab.fitting_data import bounds as _bounds
 
     assert _bounds("alpha", "float", 0.1) == (1e-3, 1.0)
+    assert _bounds("alpha_u", "float", 0.1) == _bounds("alpha_v", "float", 0.1) == (1e-3, 1.0)
+    assert _bounds("eta", "color", None) == (0.02, 5.0) and _bounds("k", "color", None) == (0.0, 10.0)  # a metal
     assert _bounds("R0", "color", 0.5) == (0.0, 1.0) and _bounds("kd", "float", 0.5) == (0.0, 1.0)
     assert _bounds("intIOR", "float", 1.5) == (1.0, 3.0)
     assert _bounds("exponent", "float", 20.0) == (0.0, 200.0)

@@ -16,9 +16,12 @@ ALBEDO_THETAS = (0.0, 20.0, 40.0, 60.0, 75.0, 85.0)
 
 DEFINITIONS = ("relative error = Σ |f_model − f_measured| · cos θ_i cos θ_o / Σ f_measured · cos θ_i cos θ_o over the "
                "fitted nodes (both directions above the surface, unmeasured nodes left out, the three channels "
-               "summed); rms = the root mean square of the loss's residuals. Standard errors come from the Jacobian "
-               "at the optimum (s²·(JᵀJ)⁻¹, s² = Σ r²/(m − n)), a linear approximation; none is given for a "
-               "parameter at a bound of its range, where that approximation does not hold.")
+               "summed); rms = the root mean square of the loss's residuals. Standard errors come from the Jacobian J "
+               "and residuals r at the optimum: (JᵀJ)⁻¹ (Σ_c g_c g_cᵀ) (JᵀJ)⁻¹ with g_c = Σ J r over the rows of "
+               "measured node c (its channels and azimuths), a linear approximation robust to residuals of "
+               "varying size; none is given for a parameter at a bound of its range, where that approximation "
+               "does not hold. An anisotropic fit compares the data at four azimuths of the half vector (φ_h = "
+               "0°, 30°, 60°, 90°); an isotropic table's value is then used at each.")
 
 
 def _fmt(v) -> str:
@@ -89,9 +92,27 @@ def _albedo(meas, model, labels: list[str], png: Path, n: int = 20_000) -> None:
     plt.close(fig)
 
 
-def write_fit_page(out: Path, measured_table: np.ndarray, result, title: str = "brdflab fit",
+def _correlations(result) -> str:
+    """The table of the fitted values' strongest correlations (|ρ| > 0.5), or nothing."""
+    from brdflab.fitting_data import strong_pairs
+    from brdflab.pages import page as html
+
+    corr = result.correlation or {}
+    if not corr.get("labels"):
+        return ""
+    pairs = strong_pairs(corr["labels"], np.asarray(corr["matrix"]), 0.5)
+    if not pairs:
+        return html.esc_p("No two fitted values are correlated beyond |ρ| = 0.5.")
+    return (html.esc_p("Correlations of the fitted values (|ρ| > 0.5; same covariance as the standard errors; a "
+                       "strong one means the data fix a combination of the two better than either, as η and k "
+                       "of a conductor):")
+            + html.table(["value", "value", "ρ"], [[a, b, f"{r:+.3f}"] for a, b, r in pairs]))
+
+
+def write_fit_page(out: Path, measured_table, result, title: str = "brdflab fit",
                    phi_d: float = 90.0, theta: float = 45.0, workers: int | None = 1) -> Path:
-    """``fit.html``, ``fit.json`` and the four comparisons of the measurement and the fit into ``out``."""
+    """``fit.html``, ``fit.json`` and the four comparisons of the measurement (a table, or data given as a
+    BSDF) and the fit into ``out``."""
     from brdflab.bsdf.measured import Measured
     from brdflab.outputs import json_text, write_text
     from brdflab.pages import page as html
@@ -101,9 +122,9 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result, title: str = "
 
     safe_figures()
     out.mkdir(parents=True, exist_ok=True)
-    meas = Measured(table=measured_table)
+    meas = Measured(table=measured_table) if isinstance(measured_table, np.ndarray) else measured_table
     model = make_bsdf(result.model, result.params)
-    labels = ["measured", f"{result.model} (fit)"]
+    labels = ["measured" if meas is not measured_table else "data", f"{result.model} (fit)"]
     slices = _slices(meas, model, result, out, phi_d)
     t, v = views.polar([meas, model], theta, 0.0, n=361)
     figures.save(figures.polar_figure(t, v, labels, theta), out / "fit_polar", formats=("png",))
@@ -114,8 +135,10 @@ def write_fit_page(out: Path, measured_table: np.ndarray, result, title: str = "
     write_text(out / "fit.json", json_text(result.to_dict(), indent=2))
     unc = result.uncertainty or {}
     rows = [[k, _fmt(v), _fmt(unc.get(k)) if k in unc else "held fixed"] for k, v in result.params.items()]
+    notes = "".join(html.esc_p(f"Note: {n}") for n in result.notes)
     body = (html.section("Fitted parameters", html.table(["parameter", "value", "standard error"], rows)
-                         + html.esc_p(result.summary()) + html.esc_p(DEFINITIONS))
+                         + html.esc_p(result.summary(notes=False)) + notes + _correlations(result)
+                         + html.esc_p(DEFINITIONS))
             + html.section("Measured and fit: four views",
                            f'<figure class="wide"><img class="fig" src="{html.data_uri(slices)}" alt="slices">'
                            f"<figcaption>{html.esc('θh × θd slices and the residual (log₁₀ model / measured)')}"

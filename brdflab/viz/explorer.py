@@ -38,10 +38,12 @@ import logging
 import math
 import re
 from html import escape as esc
+from types import SimpleNamespace
 
 import numpy as np
 
 from brdflab.viz.coalesce import DEBOUNCE_MS, QUIET_MS, Coalescer
+from brdflab.viz.explorer_choices import Alternatives, as_rgb_text, handled
 from brdflab.viz.explorer_views import (
     CONTROLS_W,
     MAX_MATERIALS,
@@ -128,6 +130,7 @@ class _Slot:
         self.prefix = "param_" if index == 1 else f"param{index}_"
         self.name: str | None = select.value if index == 1 else None
         self.widgets: dict[str, tuple[str, object]] = {}  # parameter → (kind, widget)
+        self.alt = None  # the choice and alternative widgets (:mod:`brdflab.viz.explorer_choices`)
 
 
 def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, background=None) -> None:
@@ -258,7 +261,11 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
         defaults = bsdf_parameters(slot.name, cls=allowed[slot.name])
         kinds = parameter_kinds(allowed[slot.name])
         children = []
+        slot.alt = alt = Alternatives(slot.prefix, kinds, defaults, tools(slot)) if handled(kinds) else None
         for key, default in defaults.items():
+            if alt is not None and key in alt.keys:  # a dropdown, a link or one of alternatives
+                children += alt.build(key)
+                continue
             if default is None:  # an optional parameter without a value (roughconductor's alpha_u, eta …)
                 continue
             kind = kinds[key]
@@ -279,7 +286,15 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
                 w.on_change("value", updates.on_change)
                 children.append(w)
             slot.widgets[key] = (kind, w)
+        slot.widgets.update(alt.widgets if alt is not None else {})
         slot.box.children = children
+
+    def tools(slot: _Slot) -> SimpleNamespace:
+        """The widget makers and callbacks :class:`~brdflab.viz.explorer_choices.Alternatives` builds with."""
+        return SimpleNamespace(slider=slider, colour=functools.partial(colour_widgets, slot), guarded=guarded,
+                               take=slot.widgets.__getitem__, request=lambda: updates.request(), number=number,
+                               on_change=lambda attr, old, new: updates.on_change(attr, old, new),
+                               width=CONTROLS_W - 10, set_colour=lambda w, rgb: setattr(w, "value", as_rgb_text(rgb)))
 
     def material(slot: _Slot) -> Material:
         cls = allowed[slot.name]
@@ -296,6 +311,8 @@ def make_document(doc, allowed: dict[str, type] | None = None, schedule=None, ba
                     raise BrdflabError(f"parameter '{key}': longer than {MAX_TEXT} characters")
                 v = convert_value(kind, text, f"parameter '{key}'") if kind == "color" else text
             values[key] = v
+        if slot.alt is not None:
+            slot.alt.adjust(values)
         shown = " ".join(_shown(k, x) for k, x in values.items() if not isinstance(x, np.ndarray))  # no colours
         return Material(slot.name, build_bsdf(cls, property_list(slot.name, values, cls=cls)), values,
                         f"{slot.name} {shown}".strip())
