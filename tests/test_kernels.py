@@ -483,7 +483,8 @@ def test_frame_to_local_kernel_is_bit_identical(negate):
     np.testing.assert_array_equal(got, ref)
     assert got.flags.f_contiguous and np.isfinite(ref).all()
     out = np.empty_like(ref)  # negative control: a one ulp larger a changes the result
-    kshading.frame_to_local(frames.n, frames.sign, np.nextafter(frames.a, np.inf), v, negate, out)
+    kshading.frame_to_local(frames.n, frames.sign, np.nextafter(frames.a, np.inf), v, negate,
+                            *kshading.tangent_args(frames), False, out)
     assert not np.array_equal(out, ref)
 
 

@@ -68,6 +68,10 @@ class BSDF:
     two_sided: bool = False
     #: wo may lie on the other side of the surface from wi (eval, pdf cover the whole sphere).
     has_transmission: bool = False
+    #: The material depends on the azimuth of ω_i, ω_o about n (anisotropic roughness): on a mesh with uvs its
+    #: shading frame's x axis follows the uv tangent dp/du (:mod:`brdflab.math.frame`); other materials keep
+    #: the frame built from the normal alone. A property where it depends on the parameters.
+    anisotropic: bool = False
 
     def eval(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
         """Return f(wi, wo), shape (N, 3), without the cosine."""

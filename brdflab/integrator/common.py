@@ -158,9 +158,9 @@ def _compiled_shading_points(scene, rh, d: np.ndarray, idx: np.ndarray, groups: 
     """:class:`ShadingPoints` by the compiled engine (:mod:`brdflab.kernels.shading`), bit-identical to
     ``make_shading_points(scene, g.surface(rh, idx, …), …)``."""
     tab = scene_tables(scene)
-    p, ng, ns, uv, sign, a, wi, member = load("shading").shading_arrays(scene.geometry, rh, d, idx, tab.bsdf_uv,
-                                                                        smooth, tab.tri_member)
-    return ShadingPoints(idx, p, ng, ns, NormalFrames(ns, sign, a), uv, wi, groups, member)
+    p, ng, ns, uv, sign, a, wi, member, tan = load("shading").shading_arrays(scene.geometry, rh, d, idx, tab.bsdf_uv,
+                                                                             smooth, tab.tri_member, tab)
+    return ShadingPoints(idx, p, ng, ns, NormalFrames(ns, sign, a, tan), uv, wi, groups, member)
 
 
 def shading_points(scene, hits: Hits, d: np.ndarray, idx: np.ndarray) -> ShadingPoints:
@@ -178,9 +178,11 @@ def make_shading_points(scene, h: Hits, d: np.ndarray, idx: np.ndarray,
                         groups: list[tuple[int, slice]]) -> ShadingPoints:
     """:class:`ShadingPoints` of the (already compacted, family-sorted) hits ``h`` of rays ``d``, camera
     indices ``idx``, family slices ``groups`` (:func:`sort_by_code`)."""
-    frames = NormalFrames(h.ns)
+    frames, tab = NormalFrames(h.ns), scene_tables(scene)
+    if tab.tri_tangent is not None:  # anisotropic materials on meshes with uvs: the uv tangent's frame
+        frames = frames.with_uv_tangents(np.take(tab.dpdu, h.prim, axis=1).T, np.take(tab.tri_tangent, h.prim))
     wi = frames.to_local(d, negate=True)
-    fams = scene_tables(scene).bsdf_families
+    fams = tab.bsdf_families
     member = np.take(fams.mesh_member, h.mesh) if fams.any_tables else None
     return ShadingPoints(idx, h.p, h.ng, h.ns, frames, h.uv, wi, groups, member)
 

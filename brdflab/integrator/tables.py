@@ -36,6 +36,13 @@ class SceneTables:
     tri_member: np.ndarray | None = None
     """(triangles,) index of each triangle's material within its family (``BSDFFamilies.mesh_member`` per
     triangle), or None when no family has members with different constants (:attr:`BSDFFamilies.any_tables`)."""
+    tri_tangent: np.ndarray | None = None
+    """(triangles,) True where the triangle's material is anisotropic (``BSDF.anisotropic``) and its mesh has
+    uvs: its shading frames follow the uv tangent (:meth:`~brdflab.math.frame.NormalFrames.with_uv_tangents`);
+    None when no triangle does (every frame is Duff's)."""
+    dpdu: np.ndarray | None = None
+    """(3, triangles) dp/du of each triangle (:meth:`~brdflab.scene.geometry.Geometry.dpdu_cols`) when
+    :attr:`tri_tangent` is set, else None."""
 
 
 #: :attr:`SceneTables.tri_code` of triangles on emitters and of misses.
@@ -57,5 +64,20 @@ def scene_tables(scene) -> SceneTables:
         bsdf_uv = any(not getattr(b, slot).constant for b in scene.bsdfs for slot in b.texture_slots)
         tri_member = np.take(fams.mesh_member, tri_mesh).astype(np.int64) if fams.any_tables else None
         tab = SceneTables(fams, tri_emitter, tri_code, codes, bsdf_uv, bool(np.any(mesh_emitter >= 0)), tri_member)
+        tab.tri_tangent, tab.dpdu = tangent_table(scene, mesh_emitter)
         scene.__dict__["_tables"] = tab
     return tab
+
+
+def tangent_table(scene, mesh_emitter: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(:attr:`SceneTables.tri_tangent`, :attr:`SceneTables.dpdu`): which triangles shade in the uv tangent's
+    frame, and the geometry's dp/du; (None, None) when none do (no anisotropic material on a mesh with uvs)."""
+    g = scene.geometry
+    aniso = np.array([bool(getattr(b, "anisotropic", False)) for b in scene.bsdfs], bool)
+    nm = len(mesh_emitter)
+    if not nm or not aniso.any() or g.dpdu_cols() is None:
+        return None, None
+    mesh_tangent = aniso[np.asarray(scene.mesh_bsdf, np.int64)[:nm]] & (mesh_emitter < 0) & g.mesh_has_uvs[:nm]
+    if not mesh_tangent.any():
+        return None, None
+    return np.ascontiguousarray(mesh_tangent[g.tri_mesh]), g.dpdu_cols()

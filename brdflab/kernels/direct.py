@@ -36,6 +36,7 @@ from brdflab.kernels.buffers import columns
 from brdflab.kernels.jit import (
     BOOL,
     F8,
+    FLAGS,
     IDX,
     IN1,
     IN1_F4,
@@ -48,7 +49,7 @@ from brdflab.kernels.jit import (
     inline,
     kernel,
 )
-from brdflab.kernels.shading import vertex_normal
+from brdflab.kernels.shading import tangent_args, vertex_normal
 
 #: Embree's infinity, :data:`brdflab.scene.geometry.T_INF` (a literal here: the prebuilt kernels' key hashes
 #: this folder's sources only; ``tests/test_kernels.py`` checks that the two are equal).
@@ -98,11 +99,12 @@ def light_rays(radiance, f, wo, pdf, w, mis, p, ng, wi, dist, eps, c, live, o32,
     live[n] = count
 
 
-@kernel(IN2, IN2, IN1, IN2, IN1, IN1, IN2, IN2, F8, OUT_IDX, OUT2, OUT1, OUT2, OUT2_F4)
-def bsdf_rays(wo, weight, pdf, n, sign, a, p, ng, eps, live, d, pdf_live, weight_live, o32):
+@kernel(IN2, IN2, IN1, IN2, IN1, IN1, FLAGS, IN2, IN2, BOOL, IN2, IN2, F8, OUT_IDX, OUT2, OUT1, OUT2, OUT2_F4)
+def bsdf_rays(wo, weight, pdf, n, sign, a, tmask, ts, tt, has_tangent, p, ng, eps, live, d, pdf_live, weight_live,
+              o32):
     """Fill, in their first ``live[-1]`` rows, the indices of the points with a positive weight channel, their
     unit world directions, pdfs, weights and ray origins (module docstring); ``live`` has one more entry than
-    there are points: the count."""
+    there are points: the count. With ``has_tangent``, the rows where ``tmask`` is set use the frame (s, t, n)."""
     m = wo.shape[0]
     count = 0
     for i in range(m):
@@ -118,6 +120,10 @@ def bsdf_rays(wo, weight, pdf, n, sign, a, p, ng, eps, live, d, pdf_live, weight
         x = nx * k + vx
         y = sign[i] * vy + ny * k
         z = nz * vz - r
+        if has_tangent and tmask[i]:  # to_world(v, s, t, n)
+            x = vx * ts[i, 0] + vy * tt[i, 0] + vz * nx
+            y = vx * ts[i, 1] + vy * tt[i, 1] + vz * ny
+            z = vx * ts[i, 2] + vy * tt[i, 2] + vz * nz
         ln = math.sqrt(x * x + y * y + z * z)
         x, y, z = x / ln, y / ln, z / ln
         d[count, 0], d[count, 1], d[count, 2] = x, y, z
@@ -190,7 +196,8 @@ def bsdf_ray_batch(g, sp, wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray):
     d, w_live, pdf_live = columns(m, [3, 3, None])
     o32 = np.empty((m, 3), np.float32)
     fr = sp.frames
-    bsdf_rays(_f8(wo), _f8(weight), _f8(pdf), fr.n, fr.sign, fr.a, sp.p, sp.ng, g.eps, live, d, pdf_live, w_live, o32)
+    bsdf_rays(_f8(wo), _f8(weight), _f8(pdf), fr.n, fr.sign, fr.a, *tangent_args(fr), fr.tangent is not None,
+              sp.p, sp.ng, g.eps, live, d, pdf_live, w_live, o32)
     k = int(live[m])
     return live[:k], d[:k], o32[:k], w_live[:k], pdf_live[:k]
 

@@ -66,6 +66,7 @@ F8, F4, I8, BOOL = Arg("float64"), Arg("float32"), Arg("int64"), Arg("bool")
 IN1, IN2, IN1_F4, IDX, FLAGS = Arg("float64", 1), Arg("float64", 2), Arg("float32", 1), Arg("int64", 1), Arg("bool", 1)
 OUT1, OUT2, OUT3 = Arg("float64", 1, True), Arg("float64", 2, True), Arg("float64", 3, True)
 OUT1_F4, OUT2_F4, OUT_IDX = Arg("float32", 1, True), Arg("float32", 2, True), Arg("int64", 1, True)
+OUT_FLAGS = Arg("bool", 1, True)
 
 
 class _Backend:

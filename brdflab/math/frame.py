@@ -18,6 +18,15 @@ frames as (n, σ, a) only and applies them directly: with w = n_x v_x + n_y v_y 
 
 and back, with r = σ n_x v_x + n_y v_y and k = a·r + v_z: (v_x + n_x k, σ v_y + n_y k, n_z v_z − r). That
 is 12 products per transform and 4 per frame, against 15 and 18 with explicit tangent arrays.
+
+**The uv tangent.** Anisotropic materials (``BSDF.anisotropic``) need the frame's x axis to follow the
+surface's parameterisation: at their points on a mesh with uvs, the frame is (s, t, n) with s the tangent dp/du
+of the hit's triangle (:func:`brdflab.scene.tangents.triangle_dpdu`) made orthogonal to the shading normal
+(Gram–Schmidt, :func:`uv_tangents`): s = normalize(dp/du − n (n·dp/du)), t = n × s. Where dp/du is zero (no
+uvs, degenerate uvs) or within :data:`TANGENT_TOL` of parallel to n, and at every point of an isotropic
+material, the frame is Duff's. :class:`NormalFrames` keeps those rows as a mask and explicit (s, t) arrays:
+their x and y components are dot products with s and t (z stays n's), the other rows are untouched, so
+isotropic materials see the same bits as before.
 """
 
 from __future__ import annotations
@@ -102,6 +111,28 @@ def frame_from_normal(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, t
 
 
+#: dp/du counts as parallel to the normal when its part orthogonal to n is at most this fraction of its length.
+TANGENT_TOL = 1e-6
+
+
+def uv_tangents(n: np.ndarray, dpdu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ok, s, t): s = normalize(dp/du − n (n·dp/du)) (Gram–Schmidt against unit normals ``n``), t = n × s,
+    per row of (N, 3) arrays; ``ok`` is False (and s = t = 0) where dp/du is zero or within
+    :data:`TANGENT_TOL` of parallel to n (module docstring). The compiled twin is in
+    :func:`brdflab.kernels.shading.shade`, with the same operations in the same order."""
+    c = dot(n, dpdu)
+    s = np.empty(n.shape, order="F")
+    for j in range(3):
+        np.multiply(n[:, j], c, out=s[:, j])
+        np.subtract(dpdu[:, j], s[:, j], out=s[:, j])
+    ln = np.sqrt(dot(s, s))
+    ok = ln > TANGENT_TOL * np.sqrt(dot(dpdu, dpdu))
+    ln[~ok] = 1.0
+    s /= ln[:, None]
+    s[~ok] = 0.0
+    return ok, s, cross(n, s)
+
+
 class NormalFrames:
     """The frames (s, t, n) of a batch of unit normals ``n`` (N, 3), kept as (n, σ, a) (module docstring).
 
@@ -109,9 +140,15 @@ class NormalFrames:
     ----------
     n
         (N, 3) unit normals.
+    sign, a
+        σ and a of Duff's frame (computed from ``n`` when None).
+    tangent
+        None, or (mask (N,) bool, s (N, 3), t (N, 3)): the rows where ``mask`` is True use the explicit frame
+        (s, t, n) instead of Duff's (the uv tangent, :func:`uv_tangents`).
     """
 
-    def __init__(self, n: np.ndarray, sign: np.ndarray | None = None, a: np.ndarray | None = None) -> None:
+    def __init__(self, n: np.ndarray, sign: np.ndarray | None = None, a: np.ndarray | None = None,
+                 tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
         self.n = n
         if sign is None:
             nz = n[:, 2]
@@ -119,14 +156,31 @@ class NormalFrames:
             a = sign + nz
             np.divide(-1.0, a, out=a)
         self.sign, self.a = sign, a
+        self.tangent = tangent
+
+    def with_uv_tangents(self, dpdu: np.ndarray, want: np.ndarray) -> NormalFrames:
+        """These frames with the uv tangent (:func:`uv_tangents` of ``dpdu`` (N, 3)) at the rows where ``want``
+        (N,) is True and the tangent is defined."""
+        ok, s, t = uv_tangents(self.n, dpdu)
+        ok &= want
+        s[~ok] = 0.0
+        t[~ok] = 0.0
+        return NormalFrames(self.n, self.sign, self.a, (ok, s, t))
 
     def take(self, sel: np.ndarray) -> NormalFrames:
         """The frames of the rows ``sel``."""
-        return NormalFrames(take_rows(self.n, sel), np.take(self.sign, sel), np.take(self.a, sel))
+        tan = None
+        if self.tangent is not None:
+            tan = (np.take(self.tangent[0], sel), take_rows(self.tangent[1], sel), take_rows(self.tangent[2], sel))
+        return NormalFrames(take_rows(self.n, sel), np.take(self.sign, sel), np.take(self.a, sel), tan)
 
     def tangents(self) -> tuple[np.ndarray, np.ndarray]:
-        """Explicit (s, t), as :func:`frame_from_normal` (for tests and reports)."""
-        return frame_from_normal(self.n)
+        """Explicit (s, t): :func:`frame_from_normal`, and the uv tangents where there are (for tests and reports)."""
+        s, t = frame_from_normal(self.n)
+        if self.tangent is not None:
+            ok = self.tangent[0]
+            s[ok], t[ok] = self.tangent[1][ok], self.tangent[2][ok]
+        return s, t
 
     def to_local(self, v: np.ndarray, negate: bool = False) -> np.ndarray:
         """(v·s, v·t, v·n) per row, Fortran-ordered; of −v with ``negate``."""
@@ -147,6 +201,12 @@ class NormalFrames:
         y += ny * q
         np.multiply(nz, vz, out=z)
         z += w
+        if self.tangent is not None:
+            rows = np.flatnonzero(self.tangent[0])
+            if len(rows):
+                vr = take_rows(v, rows)
+                x[rows] = dot(vr, take_rows(self.tangent[1], rows))
+                y[rows] = dot(vr, take_rows(self.tangent[2], rows))
         if negate:
             np.negative(out, out=out)
         return out
@@ -168,6 +228,11 @@ class NormalFrames:
         y += ny * k
         np.multiply(nz, vz, out=z)
         z -= r
+        if self.tangent is not None:
+            rows = np.flatnonzero(self.tangent[0])
+            if len(rows):
+                out[rows] = to_world(take_rows(v, rows), take_rows(self.tangent[1], rows),
+                                     take_rows(self.tangent[2], rows), take_rows(self.n, rows))
         return out
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from brdflab.alloc import release_freed_memory
 from brdflab.math.frame import dot, stack_cols, take_rows
 from brdflab.scene.obj import Mesh
+from brdflab.scene.tangents import triangle_dpdu
 
 #: Relative ray epsilon (spec §7.2).
 RAY_EPS = 1e-4
@@ -214,6 +215,8 @@ class Geometry:
             u0, u1, u2 = (np.where(tri_has_uv[:, None], self.uvs[self.faces[:, k]], np.eye(3)[k - 1, :2]
                                    if k else 0.0) for k in range(3))
             self.tri_uv = np.concatenate([u0, u1 - u0, u2 - u0], axis=1).T.copy()
+        self._tri_has_uv = tri_has_uv
+        self._dpdu: np.ndarray | None = None
         self.scale = float(np.abs(self.positions).max()) if nv else 1.0
         self.eps = RAY_EPS * max(1.0, self.scale)
         self.stats = RayStats()
@@ -233,6 +236,15 @@ class Geometry:
     def face_normals(self) -> np.ndarray:
         """(K, 3) unit face normals (winding order), a view of :attr:`face_normal_cols`."""
         return self.face_normal_cols.T
+
+    def dpdu_cols(self) -> np.ndarray | None:
+        """(3, K) dp/du of each triangle (:func:`~brdflab.scene.tangents.triangle_dpdu`: zero on meshes without
+        uvs and on degenerate uvs), computed at the first call; None when no mesh has uvs."""
+        if self.tri_uv is None:
+            return None
+        if self._dpdu is None:
+            self._dpdu = triangle_dpdu(self.tri_pos, self.tri_uv, self._tri_has_uv)
+        return self._dpdu
 
     @property
     def triangle_count(self) -> int:
