@@ -36,10 +36,15 @@ form: it is the sampler's density; f keeps the rational G1). weight = f cos θ_o
 below the surface keep their direction and density but get weight 0; samples from microfacets facing away
 from ω_i (ω_i·ω_h ≤ 0) fail (pdf 0): those directions cannot be produced consistently.
 
-The tangent of anisotropic α: the local frame's x axis is the shading frame's first tangent s, which brdflab
-builds from the shading normal alone (Duff et al. 2017, :mod:`brdflab.math.frame`), not from the mesh's dp/du:
-on a mesh, α_u therefore follows that frame's s, a fixed function of the normal (continuous over a flat or
-gently curved surface whose normals keep the sign of n_z), not the texture's u direction.
+The tangent of anisotropic α: the local frame's x axis (α_u) follows the mesh's uv parameterisation. A
+material whose α_u and α_v may differ (:attr:`RoughConductor.anisotropic`) is shaded, on a mesh with uvs (OBJ
+``vt``; the bundled shapes have them), in the frame s = normalize(dp/du − n (n·dp/du)), t = n × s, with dp/du
+of the hit's triangle (PBR-3 §3.6.2, :mod:`brdflab.scene.tangents`) and n the shading normal (Gram–Schmidt,
+:mod:`brdflab.math.frame`). The fallback, where a mesh has no uvs, a triangle's uvs are degenerate or dp/du is
+parallel to n: the frame built from the shading normal alone (Duff et al. 2017), whose s is a fixed function of
+the normal (continuous over a flat or gently curved surface whose normals keep the sign of n_z), not the
+texture's u direction. Isotropic materials always use that frame (their values do not depend on it; so the
+course's scenes render to the same bits).
 """
 
 from __future__ import annotations
