@@ -27,6 +27,10 @@ lights/    Small (64 × 48) canonical scenes for the light paths the other scene
            normals), ``polygon_lights`` (a planar hexagon fan and a smooth-normal sphere light: the fused
            area-light set with interpolated light normals), ``mixed_lights`` (a triangle light, a point light
            and a constant environment: emitter selection matters; delta light under MIS).
+brushed/   Brushed metal: anisotropic GGX conductors on uv-mapped meshes (their α_u follows the texture's u
+           direction, dp/du): an aluminium sphere brushed around its axis (α_u 0.06 along the parallels, α_v
+           0.35) and a copper plate brushed along its u edge (α_u 0.35, α_v 0.05), under a long strip light
+           and a square light, on a diffuse floor.
 """
 
 from __future__ import annotations
@@ -354,6 +358,39 @@ def light_scenes(out: Path) -> None:
             write(out / f"{name}_{integ.split('_')[1]}.xml", scene(f"{what}, {integ}", integ, cam + body))
 
 
+# -- brushed metal ------------------------------------------------------------------------------------------
+def ggx_aniso(metal: str, alpha_u: float, alpha_v: float) -> str:
+    """An anisotropic GGX conductor with a metal's η, k."""
+    return (f'<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+            f'<string name="material" value="{metal}"/><float name="alpha_u" value="{alpha_u:g}"/>'
+            f'<float name="alpha_v" value="{alpha_v:g}"/></bsdf>')
+
+
+def brushed(out: Path) -> None:
+    """Anisotropic GGX on a uv sphere and a uv-mapped plate (brushed metal)."""
+    meshes = out / "meshes"
+    write_obj(meshes / "sphere.obj", *uv_sphere((-0.75, 0.0, 0.0), 0.75, 32, 64), comment="uv sphere, y axis")
+    c, r = np.cos(np.radians(25)), np.sin(np.radians(25))  # turned 25° about y: u is not Duff's tangent there
+    plate = [(1.05 + c * (x - 1.05) + r * z, y, -r * (x - 1.05) + c * z)
+             for x, y, z in ((0.25, -0.75, 0.9), (1.85, -0.75, 0.9), (1.85, 0.45, -0.6), (0.25, 0.45, -0.6))]
+    write_obj(meshes / "plate.obj", *quad(*plate), comment="tilted plate turned 25° about y, u along its lower edge")
+    write_obj(meshes / "floor.obj", *quad((-6, -0.75, 6), (6, -0.75, 6), (6, -0.75, -6), (-6, -0.75, -6)),
+              comment="floor")
+    write_obj(meshes / "strip.obj", *quad((2.5, 2.5, 0.2), (2.5, 2.5, 1.0), (-2.5, 2.5, 1.0), (-2.5, 2.5, 0.2)),
+              comment="strip light facing down")
+    write_obj(meshes / "square.obj", *quad((0.4, 2.4, 2.1), (1.2, 2.4, 2.1), (1.2, 1.6, 2.5), (0.4, 1.6, 2.5)),
+              comment="square light")
+    body = (sampler(16) + camera((0, 0.9, 5), (0.1, -0.15, 0), (0, 1, 0), 40, 256, 192)
+            + mesh("meshes/sphere.obj", ggx_aniso("Al", 0.06, 0.35))
+            + mesh("meshes/plate.obj", ggx_aniso("Cu", 0.35, 0.05))
+            + mesh("meshes/floor.obj", diffuse((0.4, 0.4, 0.4)))
+            + mesh("meshes/strip.obj", area((4, 4, 3.6)))
+            + mesh("meshes/square.obj", area((6, 5.4, 4.5))))
+    for integ in ("direct_ems", "direct_mats", "direct_mis"):
+        write(out / f"brushed_{integ.split('_')[1]}.xml", scene(f"brushed metal (anisotropic GGX on uv meshes), "
+                                                                f"{integ}", integ, body))
+
+
 def main() -> None:
     """Write every bundled scene."""
     cornell_box(HERE / "cbox")
@@ -361,6 +398,7 @@ def main() -> None:
     veach(HERE / "veach")
     envlit(HERE / "envlit")
     light_scenes(HERE / "lights")
+    brushed(HERE / "brushed")
     print(f"wrote scenes into {HERE}")
 
 

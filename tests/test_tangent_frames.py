@@ -260,3 +260,54 @@ def test_both_engines_agree_to_the_bit_with_uv_frames(tmp_path):
         with kernels.use_engine(eng):
             images.append(render(sc, spp=2, seed=5, workers=1))
     np.testing.assert_allclose(images[1], images[0], rtol=1e-6, atol=1e-9)
+
+
+BRUSHED = ROOT / "scenes" / "brushed" / "brushed_mis.xml"
+
+
+def test_brushed_scene_estimators_agree():
+    """The bundled brushed-metal scene (anisotropic GGX on a uv sphere and a uv plate): light sampling, BSDF
+    sampling (directions sampled in the uv frame, taken to world space by it) and MIS agree within their
+    statistical error (on this scene: 0 false alarms in 20 seeds at the check's 1 % level, smallest p 0.084,
+    2026-12-04)."""
+    from brdflab.api import load_scene
+    from brdflab.integrator.tables import scene_tables
+    from brdflab.judges.estimators import agreement as ag
+
+    assert scene_tables(load_scene(BRUSHED)).tri_tangent is not None
+    r = ag.estimator_agreement(BRUSHED, reps=8)
+    assert r.passed, (r.p_value, r.worst, r.means)
+    assert r.tests > 30
+
+
+def test_brushed_scene_rejects_sampling_in_the_wrong_frame(monkeypatch):
+    """Negative control: BSDF samples taken to world space with the uv frame's s and t swapped (α_u applied
+    along v when sampling but not when evaluating; the NumPy engine, where the plant is made): BSDF sampling
+    and light sampling disagree (p ≤ 1e-8 on 5 seeds, 2026-12-04)."""
+    from brdflab.judges.estimators import agreement as ag
+    from brdflab.math.frame import NormalFrames
+
+    to_world = NormalFrames.to_world
+
+    def swapped(self, v):
+        tan = self.tangent if self.tangent is None else (self.tangent[0], self.tangent[2], self.tangent[1])
+        return to_world(NormalFrames(self.n, self.sign, self.a, tan), v)
+
+    monkeypatch.setattr(NormalFrames, "to_world", swapped)
+    monkeypatch.setenv("BRDFLAB_ENGINE", "numpy")
+    with kernels.use_engine("numpy"):
+        r = ag.estimator_agreement(BRUSHED, reps=8, estimators=("direct_ems", "direct_mats"))
+    assert not r.passed and r.p_value < 1e-4, (r.p_value, r.worst)
+
+
+@pytest.mark.skipif(not kernels._numba_available(), reason="numba is not installed")
+def test_brushed_scene_renders_alike_on_both_engines():
+    """The bundled scene at a tiny size: a lit image, the same through both engines."""
+    from brdflab.api import load_scene, render
+
+    images = []
+    for eng in kernels.ENGINES:
+        with kernels.use_engine(eng):
+            images.append(render(load_scene(BRUSHED, width=32, height=24), spp=4, seed=1, workers=1))
+    assert images[0].mean() > 0.02 and np.isfinite(images[0]).all()
+    np.testing.assert_allclose(images[1], images[0], rtol=1e-6, atol=1e-9)
