@@ -383,3 +383,29 @@ def test_editing_an_inlined_helper_recompiles_the_jit(tmp_path):
     second = probe()
     assert float(second[0]) == pytest.approx(2 * float(first[0]), rel=1e-12)
     assert len(list((tmp_path / "cache" / "jit").iterdir())) == 2  # one folder per version of the sources
+
+
+def test_the_builder_compiles_the_sources_of_the_process_that_started_it(tmp_path, monkeypatch):
+    """``python -m`` puts the working folder first on sys.path: started from a folder holding another brdflab
+    (a second clone), the builder compiled that one's kernels under this process's key, and this process then
+    loaded them (found by rendering the start commit with PYTHONPATH from inside a clone). The builder now runs
+    from the folder above its own brdflab, and refuses a key that is not its sources' (a failed build). A decoy
+    brdflab in the working folder writes a marker if it is imported; the key asked for is not the sources'."""
+    from brdflab.kernels import aot
+
+    decoy = tmp_path / "clone" / "brdflab" / "kernels"
+    decoy.mkdir(parents=True)
+    marker = tmp_path / "decoy-ran"
+    (decoy.parent / "__init__.py").write_text("")
+    (decoy / "__init__.py").write_text("")
+    (decoy / "aot.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    root = tmp_path / "cache"
+    root.mkdir(mode=0o700)
+    monkeypatch.chdir(decoy.parent.parent)
+    wrong = "0" * 20
+    assert wrong != aot.key()
+    proc = aot.start(root, wrong, background=False)
+    assert proc.wait(timeout=300) == 0
+    assert not marker.exists(), "the builder imported the brdflab of its working folder"
+    entry = cache._inspect(root, wrong)
+    assert entry.state == "failed" and "are not those of key" in entry.message, entry

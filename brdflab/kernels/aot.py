@@ -112,8 +112,12 @@ def start(root: Path, k: str, background: bool) -> subprocess.Popen:
     it outlives this process (the next process picks up the module); otherwise it dies with this process."""
     cmd = [sys.executable, "-m", "brdflab.kernels.aot", "build", str(root), k,
            "background" if background else str(os.getpid())]
-    proc = subprocess.Popen(cmd, env=_child_env(), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True)
+    # cwd: ``python -m`` puts the working folder first on sys.path, before PYTHONPATH: run from a clone holding
+    # other brdflab sources, the builder compiled those under this process's key (this process then loaded
+    # kernels that were not its own). From the folder above this brdflab, the builder imports this one.
+    proc = subprocess.Popen(cmd, env=_child_env(), cwd=str(HERE.parent.parent), stdin=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                            close_fds=True)
     if background:
         _DETACHED.append(proc)
     return proc
@@ -294,9 +298,19 @@ def main(argv: list[str]) -> int:
         if os.getppid() != int(mode):  # the parent died before the prctl call
             return 1
     try:
+        own = key()
+        if k != own:  # never store kernels compiled from other sources under this key: a failed build instead
+            return run_build(Path(root), k, _foreign(k, own))
         return run_build(Path(root), k)
     except _Stopped:
         return 1
+
+
+def _foreign(k: str, own: str):
+    """A ``compile_into`` that fails: the builder's sources (``own`` key) are not those of the key ``k``."""
+    def refuse(folder: str) -> None:
+        raise RuntimeError(f"the builder's kernel sources ({HERE}, key {own}) are not those of key {k}")
+    return refuse
 
 
 if __name__ == "__main__":
