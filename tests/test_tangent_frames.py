@@ -81,6 +81,23 @@ def test_triangle_dpdu_against_hand_values():
     assert not du[:, 1:].any() and not dv[:, 1:].any()
 
 
+def test_extreme_uvs_fall_back_to_duffs_frame():
+    """uvs at 1e-160 (the determinant underflows to a subnormal: dp/du overflows), at 1e200 (it overflows), NaN,
+    and dp/du along the normal, within 1e-9 of it, or zero: no uv frame there, and nothing non-finite in s, t;
+    10⁻³ off the normal: a uv frame."""
+    from brdflab.math.frame import uv_tangents
+
+    pos = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])[:, None].repeat(3, axis=1)
+    uv = np.array([[0, 0, 1e-160, 0, 0, 1e-160], [0, 0, 1e200, 0, 0, 1e200], [0, 0, np.nan, 0, 0, 1]]).T
+    with np.errstate(all="ignore"):
+        d = triangle_dpdu(pos, uv, np.ones(3, bool))
+    n = np.tile([0.0, 0.0, 1.0], (7, 1))
+    dp = np.vstack([d.T, [[0, 0, 2.0], [0, 0, 0], [1e-9, 0, 1.0], [1e-3, 0, 1.0]]])
+    with np.errstate(all="ignore"):
+        ok, s, t = uv_tangents(n, dp)
+    assert ok.tolist() == [False] * 6 + [True] and np.isfinite(s).all() and np.isfinite(t).all()
+
+
 @pytest.mark.parametrize("engine", kernels.ENGINES)
 def test_frame_follows_the_uv_tangent(tmp_path, engine, monkeypatch):
     """On a quad whose uvs are rotated by 30°, every shading frame is (dp/du, n × dp/du, n) with dp/du =
