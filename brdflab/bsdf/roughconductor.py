@@ -56,26 +56,20 @@ from brdflab.bsdf.base import BSDF, BSDFSample, cos_weight, uv_or_zeros
 from brdflab.bsdf.conductors import MATERIALS, metal_eta_k
 from brdflab.bsdf.fresnel import fresnel_conductor, fresnel_schlick
 from brdflab.bsdf.microfacet import beckmann_d, half_vector, reflect, reflection_pdf, smith_g1
+from brdflab.bsdf.microfacet_options import (  # noqa: F401 (alpha_values: re-exported)
+    KNOWN_OPTIONS,
+    MicrofacetOptions,
+    alpha_values,
+    check_alpha,
+    option_properties,
+)
 from brdflab.errors import clean
 from brdflab.kernels import twin
-from brdflab.math import warps
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
 
 
-def alpha_values(tex: Texture, uv: np.ndarray | None, n: int) -> np.ndarray | float:
-    """Roughness per query: the constant, or the luminance of a texture at ``uv``."""
-    if tex.constant:
-        return tex.luminance()  # the weights sum to 1, so a grey value is kept exactly
-    return tex.luminance(uv_or_zeros(uv, n))
-
-
-def check_alpha(props: PropertyList) -> float:
-    """Read ``alpha`` and require a finite value > 0."""
-    return props.positive_float("alpha", 0.1)
-
-
-class RoughConductor(BSDF):
+class RoughConductor(MicrofacetOptions, BSDF):
     """Rough conductor: Beckmann or GGX, isotropic or anisotropic, Schlick or (η, k) Fresnel (module docstring).
 
     Parameters
@@ -118,23 +112,14 @@ class RoughConductor(BSDF):
     texture_slots = ("R0", "alpha")
     #: What ``fit`` adjusts by default (the optional anisotropy and η/k are alternatives to R0 and alpha).
     fit_parameters = ("R0", "alpha")
-    KNOWN = {"R0": "color", "alpha": "float", "alpha_u": "float", "alpha_v": "float", "distribution": "string",
-             "sample_visible": "boolean", "eta": "color", "k": "color", "material": "string"}
+    KNOWN = {"R0": "color", "alpha": "float", **KNOWN_OPTIONS, "eta": "color", "k": "color", "material": "string"}
 
     def __init__(self, R0: Texture | np.ndarray | float = 0.5, alpha: Texture | float = 0.1,  # noqa: N803
                  distribution: str = mf.BECKMANN, alpha_u: float | None = None, alpha_v: float | None = None,
                  sample_visible: bool | None = None, eta=None, k=None, material: str | None = None) -> None:
         self.R0 = as_texture(R0)
         self.alpha = as_texture(alpha)
-        if distribution not in mf.DISTRIBUTIONS:
-            raise ValueError(f"distribution must be one of {', '.join(mf.DISTRIBUTIONS)}, got {distribution!r}")
-        self.distribution = distribution
-        for name, v in (("alpha_u", alpha_u), ("alpha_v", alpha_v)):
-            if v is not None and not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {v}")
-        self.alpha_u = None if alpha_u is None else float(alpha_u)
-        self.alpha_v = None if alpha_v is None else float(alpha_v)
-        self.sample_visible = (distribution == mf.GGX) if sample_visible is None else bool(sample_visible)
+        self.set_options(distribution, alpha_u, alpha_v, sample_visible)
         if material is not None:
             if eta is not None or k is not None:
                 raise ValueError("give either material or eta/k, not both")
@@ -155,10 +140,7 @@ class RoughConductor(BSDF):
     def from_properties(cls, props: PropertyList) -> RoughConductor:
         """Build from a ``<bsdf type="roughconductor">`` property list."""
         props.check_known(cls.KNOWN)
-        dist = props.get_string("distribution", mf.BECKMANN)
-        if dist not in mf.DISTRIBUTIONS:
-            raise props.error("distribution", f"'distribution' must be one of {', '.join(mf.DISTRIBUTIONS)}, "
-                              f"got '{clean(dist, 30)}'")
+        options = option_properties(props)
         material = props.get_string("material") if "material" in props else None
         if material is not None and material not in MATERIALS:
             raise props.error("material", f"'material' must be one of {', '.join(MATERIALS)}, "
@@ -175,15 +157,12 @@ class RoughConductor(BSDF):
             if np.any(eta <= 0):
                 raise props.error("eta", f"'eta' must have components > 0, got {eta.tolist()}")
             k = props.nonnegative_color("k", np.zeros(3))
-        au = props.positive_float("alpha_u", 1.0) if "alpha_u" in props else None
-        av = props.positive_float("alpha_v", 1.0) if "alpha_v" in props else None
-        vis = props.get_bool("sample_visible") if "sample_visible" in props else None
-        return cls(props.reflectance("R0", np.full(3, 0.5)), check_alpha(props), distribution=dist, alpha_u=au,
-                   alpha_v=av, sample_visible=vis, eta=eta, k=k, material=material)
+        return cls(props.reflectance("R0", np.full(3, 0.5)), check_alpha(props), eta=eta, k=k, material=material,
+                   **options)
 
     def scalar_parameters(self) -> tuple:
         """The non-texture parameters (members of a material family share them)."""
-        return (self.distribution, self.alpha_u, self.alpha_v, self.sample_visible,
+        return (*self.option_parameters(),
                 None if self.eta is None else tuple(self.eta), None if self.k is None else tuple(self.k))
 
     @property
@@ -205,24 +184,6 @@ class RoughConductor(BSDF):
             a = float(self.alpha.luminance())
             au, av = (a if au is None else au), (a if av is None else av)
         return au != av
-
-    @property
-    def isotropic_beckmann(self) -> bool:
-        """Beckmann with one α: the course's D and G1 functions serve it."""
-        return self.distribution == mf.BECKMANN and self.alpha_u is None and self.alpha_v is None
-
-    @property
-    def alpha_value(self) -> float:
-        """The (mean) roughness, for reports."""
-        if self.alpha_u is not None or self.alpha_v is not None:
-            a = float(np.mean(self.alpha.mean()))
-            return float(np.sqrt((self.alpha_u or a) * (self.alpha_v or a)))
-        return float(np.mean(self.alpha.mean()))
-
-    def alphas(self, uv: np.ndarray | None, n: int) -> tuple:
-        """(α_u, α_v) per query (constants or (n,) arrays)."""
-        a = alpha_values(self.alpha, uv, n) if self.alpha_u is None or self.alpha_v is None else None
-        return (a if self.alpha_u is None else self.alpha_u), (a if self.alpha_v is None else self.alpha_v)
 
     def _fresnel(self, hi: np.ndarray, uv: np.ndarray | None, n: int, s: np.ndarray) -> np.ndarray:
         c = np.clip(hi, 0.0, 1.0)
@@ -279,16 +240,6 @@ class RoughConductor(BSDF):
     def eval_pdf(self, wi: np.ndarray, wo: np.ndarray, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """f and p together (one half vector and one D(ω_h))."""
         return self._terms(wi, wo, uv, True, True)
-
-    def sample_normals(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
-        """The microfacet normals :meth:`sample` reflects ω_i about (module docstring)."""
-        n = len(wi)
-        if self.isotropic_beckmann and not self.sample_visible:
-            return warps.square_to_beckmann(u[:, :2], alpha_values(self.alpha, uv, n))
-        ax, ay = self.alphas(uv, n)
-        if self.sample_visible:
-            return mf.sample_visible_normals(self.distribution, wi, u, ax, ay)
-        return mf.sample_normals(self.distribution, u, ax, ay)
 
     @twin("bsdf", "sample_bsdf")
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:

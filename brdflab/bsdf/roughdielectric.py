@@ -1,24 +1,32 @@
-"""``roughdielectric``: a rough, two-sided dielectric interface — Walter et al. 2007 with Beckmann D (spec §10.7).
+"""``roughdielectric``: a rough, two-sided dielectric interface — Walter et al. 2007 with Beckmann or GGX D
+(spec §10.7; issue 45).
 
-=============  ===========================================  ==========  ===========================================
-parameter      tag                                          default     meaning
-=============  ===========================================  ==========  ===========================================
-``alpha``      float, or child ``texture name="alpha"``     0.1         Beckmann roughness α (> 0; a texture's
-                                                                        luminance is used)
-``intIOR``     float                                        1.5046      index of the interior (opposite the normal)
-``extIOR``     float                                        1.000277    index of the exterior (the normal's side)
-``ka``         color, or child ``texture name="m_ka"``      1           colour factor of the transmitted lobe
-               (or ``name="ka"``)
-=============  ===========================================  ==========  ===========================================
+==================  ===========================================  ============  ====================================
+parameter           tag                                          default       meaning
+==================  ===========================================  ============  ====================================
+``alpha``           float, or child ``texture name="alpha"``     0.1           roughness α (> 0; a texture's
+                                                                               luminance is used); sets α_u, α_v
+``alpha_u``         float                                        ``alpha``     α along the shading frame's x axis
+``alpha_v``         float                                        ``alpha``     α along the shading frame's y axis
+``distribution``    string: ``beckmann`` or ``ggx``              ``beckmann``  the microfacet distribution D
+``sample_visible``  boolean                                      true for ggx  sample visible normals (Heitz 2018)
+``intIOR``          float                                        1.5046        index of the interior (opposite
+                                                                               the normal)
+``extIOR``          float                                        1.000277      index of the exterior (the
+                                                                               normal's side)
+``ka``              color, or child ``texture name="m_ka"``      1             colour factor of the transmitted
+                    (or ``name="ka"``)                                         lobe
+==================  ===========================================  ============  ====================================
 
 The spec (§10.7) lists the parameters only (the course's eval, pdf and sample throw), so ``ka``'s meaning is
 brdflab's choice, stated here: a per-channel transmittance tint of the refracted lobe (coloured glass);
 ka = 1 is Walter et al.'s model exactly, ka ≤ 1 keeps energy conservation.
 
 Walter, Marschner, Li, Torrance, "Microfacet Models for Refraction through Rough Surfaces", EGSR 2007. Two-sided:
-where cos θ_i < 0 the frame is flipped (z → −z, an isotropic symmetry) and the media swapped, so below
+where cos θ_i < 0 the frame is flipped (z → −z) and the media swapped, so below
 (η_i, η_t) = (ext, int) for ω_i on the normal's side and (int, ext) inside, cos θ_i > 0, D, G1 from
-:mod:`brdflab.bsdf.microfacet` (the course's Beckmann D and rational Smith G1, spec §11.1), and
+:mod:`brdflab.bsdf.microfacet` (the defaults: the course's Beckmann D and rational Smith G1, spec §11.1, bit for
+bit as before; GGX with its exact G1; anisotropic α_u along the frame's x axis), and
 F(ω_i·ω_h) the exact dielectric Fresnel (spec §11.1) of the microfacet:
 
 * reflection (ω_o on ω_i's side), ω_h = normalize(ω_i + ω_o) (Walter eqs. 13, 20):
@@ -30,7 +38,15 @@ F(ω_i·ω_h) the exact dielectric Fresnel (spec §11.1) of the microfacet:
   (generalised reciprocity, Veach 1997 eq. 5.14; :meth:`RoughDielectric.eta_ratio` gives η_o/η_i).
   In the smooth limit the refracted weight tends to (η_i/η_t)², the radiance scale of ``dielectric``.
 
-Sampling (Walter §5.3): ω_h from the Beckmann warp (density D cos θ_h, ξ1, ξ2); ω_i·ω_h ≤ 0 fails; with
+The flip keeps the anisotropy: it leaves x and y alone, and D, Λ and G1 depend on the normal's x², y² and z
+only (D(x, y, z) = D(−x, −y, z)), so the normals −ω_h that the interface shows from inside, flipped, have the
+same D with α_u still along x.
+
+Sampling (Walter §5.3): ω_h from the Beckmann warp (density D cos θ_h, ξ1, ξ2), or
+:func:`~brdflab.bsdf.microfacet.sample_normals` (D cos θ_h), or with ``sample_visible`` the visible normals of
+ω_i (:func:`~brdflab.bsdf.microfacet.sample_visible_normals`, density G1(ω_i) max(0, ω_i·ω_h) D/cos θ_i with
+the exact G1 = 1/(1 + Λ(ω_i)); Heitz 2018 eq. 1, used for transmission as in pbrt-v4 and Mitsuba 3: the normal
+is drawn once, the Fresnel choice and the Jacobians are those below); ω_i·ω_h ≤ 0 fails; with
 probability F(ω_i·ω_h) (ξ3 < F) reflect, ω_o = 2(ω_i·ω_h)ω_h − ω_i, else refract,
 ω_o = −η ω_i + (η ω_i·ω_h − cos θ_t) ω_h with η = η_i/η_t (Snell about ω_h); a direction that ends on the
 wrong side of the macro surface fails (pdf 0, weight 0). Densities (eqs. 14, 17, 38):
@@ -38,19 +54,19 @@ wrong side of the macro surface fails (pdf 0, weight 0). Densities (eqs. 14, 17,
     p(ω_o) = F D cos θ_h / (4 |ω_o·ω_h|)                                     (reflection)
     p(ω_o) = (1 − F) D cos θ_h · η_t² |ω_o·ω_h| / (η_i ω_i·ω_h + η_t ω_o·ω_h)²   (transmission)
 
-and weight = f |cos θ_o| / p (f and p evaluated from (ω_i, ω_o) as :meth:`eval` and :meth:`pdf` do).
+with D cos θ_h replaced by G1(ω_i) max(0, ω_i·ω_h) D / cos θ_i for visible normals, and
+weight = f |cos θ_o| / p (f and p evaluated from (ω_i, ω_o) as :meth:`eval` and :meth:`pdf` do).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from brdflab.bsdf import microfacet as mf
 from brdflab.bsdf.base import BSDF, BSDFSample, abs_cos_weight, uv_or_zeros
 from brdflab.bsdf.dielectric import EXT_IOR, INT_IOR, check_iors, side_eta_ratio
 from brdflab.bsdf.fresnel import dielectric_refraction, fresnel_dielectric
-from brdflab.bsdf.microfacet import beckmann_d, smith_g1
-from brdflab.bsdf.roughconductor import alpha_values, check_alpha
-from brdflab.math import warps
+from brdflab.bsdf.microfacet_options import KNOWN_OPTIONS, MicrofacetOptions, check_alpha, option_properties
 from brdflab.scene.properties import PropertyList
 from brdflab.texture import Texture, as_texture
 
@@ -59,13 +75,17 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
-class RoughDielectric(BSDF):
-    """Rough dielectric interface (Walter et al. 2007, Beckmann), reflection and transmission; two-sided.
+class RoughDielectric(MicrofacetOptions, BSDF):
+    """Rough dielectric interface (Walter et al. 2007, Beckmann or GGX), reflection and transmission; two-sided.
 
     Parameters
     ----------
     alpha, intIOR, extIOR, ka
         As in the table of the module docstring.
+    distribution, alpha_u, alpha_v, sample_visible
+        The microfacet options (:mod:`brdflab.bsdf.microfacet_options`): ``"beckmann"`` (default) or ``"ggx"``,
+        anisotropic roughness along the local x and y axes (default: ``alpha``), visible-normal sampling
+        (default: True for GGX).
 
     Examples
     --------
@@ -79,17 +99,23 @@ class RoughDielectric(BSDF):
     True
     >>> bool((s.wo[:, 2] < 0).any())      # some samples refract
     True
+    >>> v = RoughDielectric(distribution="ggx", alpha_u=0.1, alpha_v=0.4, intIOR=1.5, extIOR=1.0)
+    >>> s = v.sample(wi, np.random.default_rng(2).random((4, 3)))
+    >>> bool(np.allclose(s.pdf, v.pdf(wi, s.wo)))
+    True
     """
 
     type_name = "roughdielectric"
     texture_slots = ("alpha", "ka", "m_ka")
-    KNOWN = {"alpha": "float", "intIOR": "float", "extIOR": "float", "ka": "color"}
+    KNOWN = {"alpha": "float", **KNOWN_OPTIONS, "intIOR": "float", "extIOR": "float", "ka": "color"}
     two_sided = True
     has_transmission = True
 
     def __init__(self, alpha: Texture | float = 0.1, intIOR: float = INT_IOR, extIOR: float = EXT_IOR,  # noqa: N803
-                 ka: Texture | np.ndarray | float = 1.0) -> None:
+                 ka: Texture | np.ndarray | float = 1.0, distribution: str = mf.BECKMANN, alpha_u: float | None = None,
+                 alpha_v: float | None = None, sample_visible: bool | None = None) -> None:
         self.alpha = as_texture(alpha)
+        self.set_options(distribution, alpha_u, alpha_v, sample_visible)
         self.int_ior, self.ext_ior = float(intIOR), float(extIOR)
         self.ka = as_texture(ka)
 
@@ -97,8 +123,9 @@ class RoughDielectric(BSDF):
     def from_properties(cls, props: PropertyList) -> RoughDielectric:
         """Build from a ``<bsdf type="roughdielectric">`` property list."""
         props.check_known(cls.KNOWN)
+        options = option_properties(props)
         int_ior, ext_ior = check_iors(props)
-        return cls(check_alpha(props), int_ior, ext_ior, props.reflectance("ka", np.ones(3)))
+        return cls(check_alpha(props), int_ior, ext_ior, props.reflectance("ka", np.ones(3)), **options)
 
     @property
     def m_ka(self) -> Texture:
@@ -110,13 +137,8 @@ class RoughDielectric(BSDF):
         setattr(self, "ka" if slot == "m_ka" else slot, texture)
 
     def scalar_parameters(self) -> tuple:
-        """(η_int, η_ext)."""
-        return (self.int_ior, self.ext_ior)
-
-    @property
-    def alpha_value(self) -> float:
-        """The (mean) roughness, for reports."""
-        return float(np.mean(self.alpha.mean()))
+        """(η_int, η_ext, distribution, α_u, α_v, sample_visible)."""
+        return (self.int_ior, self.ext_ior, *self.option_parameters())
 
     def eta_ratio(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """η_o/η_i (N,): int/ext for ω_i outside and ω_o inside, ext/int the other way, 1 on one side."""
@@ -147,7 +169,6 @@ class RoughDielectric(BSDF):
                need_pdf: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
         """f and/or p of the same directions, sharing ω_h, D, F and the Jacobian."""
         n = len(wi)
-        a = alpha_values(self.alpha, uv, n)
         s, eta_i, eta_t = self._media(wi)
         flip = np.stack([np.ones(n), np.ones(n), s], axis=1)
         wi_f, wo_f = wi * flip, wo * flip
@@ -159,12 +180,11 @@ class RoughDielectric(BSDF):
         h = h / np.where(okh, np.where(h[:, 2] < 0, -norm, norm), 1.0)[:, None]
         wih, woh = _dot(wi_f, h), _dot(wo_f, h)
         ok = (ci > 0) & okh & (wih > 0) & (refl | (trans & (woh < 0)))
-        d = beckmann_d(h[:, 2], a)
+        d, g, alphas = self.d_g1(h, wi_f if need_f else None, wo_f, uv, n, wih, woh)
         fr = self.fresnel(s, wih, wi_f)
         jac = np.where(refl, 1.0, self.jacobian_t(wih, woh, eta_i, eta_t))
         f = pdf = None
         if need_f:
-            g = smith_g1(wi_f, h, a, wih) * smith_g1(wo_f, h, a, woh)
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = fr * d * g / (4.0 * ci * co)
                 t = wih * eta_i * eta_i * (1.0 - fr) * d * g * jac / (ci * np.abs(co) * eta_t * eta_t)
@@ -173,8 +193,9 @@ class RoughDielectric(BSDF):
             ka = self.ka.value if self.ka.constant else self.ka.eval(uv_or_zeros(uv, n))
             f = r[:, None] + t[:, None] * np.broadcast_to(np.asarray(ka, dtype=np.float64), (n, 3))
         if need_pdf:
+            w = self.normal_factor(wi_f, h, wih, alphas)  # D·w: the density of ω_h (cos θ_h, or visible)
             with np.errstate(divide="ignore", invalid="ignore"):
-                p = np.where(refl, fr * d * h[:, 2] / (4.0 * np.abs(woh)), (1.0 - fr) * d * h[:, 2] * jac)
+                p = np.where(refl, fr * d * w / (4.0 * np.abs(woh)), (1.0 - fr) * d * w * jac)
             pdf = np.where(ok & np.isfinite(p), p, 0.0)
         return f, pdf
 
@@ -191,13 +212,14 @@ class RoughDielectric(BSDF):
         return self._terms(wi, wo, uv, True, True)
 
     def sample(self, wi: np.ndarray, u: np.ndarray, uv: np.ndarray | None = None) -> BSDFSample:
-        """ω_h ∝ D cos θ_h, then reflect (probability F) or refract about it (see the module docstring)."""
+        """ω_h ∝ D cos θ_h (or a visible normal), then reflect (probability F) or refract about it (see the module
+        docstring)."""
         n = len(wi)
-        a = alpha_values(self.alpha, uv, n)
         s, _, _ = self._media(wi)
         flip = np.stack([np.ones(n), np.ones(n), s], axis=1)
         wi_f = wi * flip
-        h = warps.square_to_beckmann(u[:, :2], a)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            h = self.sample_normals(wi_f, u, uv)
         wih = _dot(wi_f, h)
         fr, cos_t, eta = self.refraction(s * wih, wi_f)
         refl = u[:, 2] < fr
@@ -205,6 +227,8 @@ class RoughDielectric(BSDF):
         wo_t = -eta[:, None] * wi_f + (eta * wih - cos_t)[:, None] * h
         wo_f = np.where(refl[:, None], wo_r, wo_t)
         ok = (wih > 0) & (wi_f[:, 2] > 0) & np.where(refl, wo_f[:, 2] > 0, wo_f[:, 2] < 0)
+        if not self.default_options:  # a failed normal (grazing ω_i, ξ1 = 1 of an unbounded warp): a finite ω_o
+            wo_f = np.where(np.isfinite(wo_f), wo_f, np.array([0.0, 0.0, -1.0]))
         wo = wo_f * flip
         f, pdf = self.eval_pdf(wi, wo, uv)
         pdf = np.where(ok, pdf, 0.0)

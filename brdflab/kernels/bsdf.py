@@ -371,7 +371,10 @@ def _run(bsdf, op: int, need_f: bool, need_pdf: bool, wi: np.ndarray, wo: np.nda
 
 def _covered(bsdf) -> bool:
     """False for an instance outside the kernel's models: the NumPy method runs instead (the twin returns
-    ``NotImplemented``). Every roughconductor (Beckmann or GGX, visible normals or not) is covered."""
+    ``NotImplemented``). Every roughconductor (Beckmann or GGX, visible normals or not) is covered; a roughsubstrate
+    only with the default coat (Beckmann, one α, D cos θ_h)."""
+    if type(bsdf).kernel == "roughsubstrate":
+        return bsdf.default_options
     return True
 
 
