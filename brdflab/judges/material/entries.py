@@ -49,18 +49,21 @@ class VndfWithoutG1Conductor(RoughConductor):
         return f, pdf
 
 
-class SwappedAlphaConductor(RoughConductor):
-    """A deliberately wrong anisotropic conductor: its sampler swaps α_u and α_v (eval and pdf do not)."""
-
-    def __init__(self, R0=0.5, alpha=0.3, **kw):  # noqa: N803
-        super().__init__(R0, alpha, **{"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.4, **kw})
+class SwappedAlphaSampler:
+    """Mix-in of a deliberately wrong anisotropic microfacet material: its sampler swaps α_u and α_v (eval and
+    pdf do not)."""
 
     def sample_normals(self, wi, u, uv=None):
         """The normals of the sampler with α_u and α_v exchanged."""
         ax, ay = self.alphas(uv, len(wi))
-        if self.sample_visible:
-            return mf.sample_visible_normals(self.distribution, wi, u, ay, ax)
-        return mf.sample_normals(self.distribution, u, ay, ax)
+        return self.normals_for(wi, u, ay, ax)
+
+
+class SwappedAlphaConductor(SwappedAlphaSampler, RoughConductor):
+    """A deliberately wrong anisotropic conductor: its sampler swaps α_u and α_v (eval and pdf do not)."""
+
+    def __init__(self, R0=0.5, alpha=0.3, **kw):  # noqa: N803
+        super().__init__(R0, alpha, **{"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.4, **kw})
 
 
 #: The controls of the GGX/anisotropic conductor: (name, BSDF) that the chi-square must reject.

@@ -8,11 +8,13 @@ class                                  the bug (a student's, spec §10.4 and Wal
 :class:`NoJacobianRoughDielectric`     pdf without dω_h/dω_o = η_t²|ω_o·ω_h|/(η_i ω_i·ω_h +        chi-square
                                        η_t ω_o·ω_h)² of the transmitted half vector
 :class:`InvertedEtaRoughDielectric`    refraction about ω_h with η inverted (sampling only)        chi-square
+:class:`VndfWithoutG1RoughDielectric`  GGX visible-normal pdf without G1(ω_i) (issue 45)            chi-square
+:class:`SwappedAlphaRoughDielectric`   anisotropic GGX, α_u/α_v swapped in the sampler only        chi-square
 :class:`MacroCosineRoughDielectric`    Fresnel of the macro-normal cos θ_i instead of ω_i·ω_h, in  reciprocity
                                        eval, pdf and sampling alike (so sample and pdf agree)      (consistency)
 =====================================  ==========================================================  ===================
 
-:func:`run_controls` runs the first four the way the battery does and returns their results (each must fail);
+:func:`run_controls` runs the first six the way the battery does and returns their results (each must fail);
 the last one is a test of the consistency check (tests/test_transmission_judges.py).
 """
 
@@ -20,9 +22,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from brdflab.bsdf import microfacet as mf
 from brdflab.bsdf.dielectric import Dielectric
 from brdflab.bsdf.fresnel import dielectric_refraction, fresnel_dielectric
 from brdflab.bsdf.roughdielectric import RoughDielectric
+from brdflab.judges.material.entries import SwappedAlphaSampler
 
 
 def _inverted(f: np.ndarray, cos_i: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -75,6 +79,30 @@ class InvertedEtaRoughDielectric(RoughDielectric):
         return _inverted(f, np.abs(c), eta)
 
 
+class VndfWithoutG1RoughDielectric(RoughDielectric):
+    """GGX with visible normals whose pdf omits G1(ω_i) (reflection and transmission): it does not integrate to 1."""
+
+    type_name = "roughdielectric, visible-normal pdf without G1(ω_i)"
+
+    def __init__(self, alpha=0.3, intIOR=1.5, extIOR=1.0, **kw):  # noqa: N803
+        super().__init__(alpha, intIOR, extIOR, **{"distribution": "ggx", "sample_visible": True, **kw})
+
+    def _terms(self, wi, wo, uv, need_f, need_pdf):
+        f, pdf = super()._terms(wi, wo, uv, need_f, need_pdf)
+        if need_pdf:  # Λ depends on z² only: the same from either side
+            pdf = pdf * (1.0 + mf.smith_lambda(self.distribution, wi, *self.alphas(uv, len(wi))))
+        return f, pdf
+
+
+class SwappedAlphaRoughDielectric(SwappedAlphaSampler, RoughDielectric):
+    """Anisotropic GGX (α_u = 0.1, α_v = 0.4) whose sampler swaps α_u and α_v; eval and pdf are right."""
+
+    type_name = "roughdielectric, α_u/α_v swapped in the sampler"
+
+    def __init__(self, alpha=0.3, intIOR=1.5, extIOR=1.0, **kw):  # noqa: N803
+        super().__init__(alpha, intIOR, extIOR, **{"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.4, **kw})
+
+
 class MacroCosineRoughDielectric(RoughDielectric):
     """F(cos θ_i) of the macro normal everywhere (consistent between sample and pdf, so chi-square passes)."""
 
@@ -92,8 +120,8 @@ class MacroCosineRoughDielectric(RoughDielectric):
 
 
 def run_controls(n: int, threshold: float, progress=None) -> list:
-    """The four controls of the battery (delta: θ_i = 60°, 150°; chi-square: α = 0.3, θ_i = 30°, 150°); each
-    result must fail (``passed`` False)."""
+    """The six controls of the battery (delta: θ_i = 60°, 150°; chi-square: α = 0.3, θ_i = 30°, 150°, or 60°,
+    120° for the pdf without G1(ω_i)); each result must fail (``passed`` False)."""
     from brdflab.judges.core.seeding import test_seed
     from brdflab.judges.material import chi2 as c2
     from brdflab.judges.material.delta import delta_test
@@ -104,8 +132,10 @@ def run_controls(n: int, threshold: float, progress=None) -> list:
             out.append(delta_test(cls(1.5, 1.0), theta=t, samples=min(n, 100_000), name=cls.type_name,
                                   params={"intIOR": 1.5, "theta": t}, threshold=threshold,
                                   seed=test_seed("neg-delta", cls.type_name, t)))
-    for cls in (NoJacobianRoughDielectric, InvertedEtaRoughDielectric):
-        for t in (30.0, 150.0):
+    # Without G1(ω_i) the pdf is off by 1 + Λ(ω_i), < 1 % at 30° from the normal (α = 0.3): 60° from either side.
+    for cls, thetas in ((NoJacobianRoughDielectric, (30.0, 150.0)), (InvertedEtaRoughDielectric, (30.0, 150.0)),
+                        (VndfWithoutG1RoughDielectric, (60.0, 120.0)), (SwappedAlphaRoughDielectric, (30.0, 150.0))):
+        for t in thetas:
             seed = test_seed("neg-rough", cls.type_name, t)
             out.append(c2.bsdf_test(cls.type_name, cls(0.3, 1.5, 1.0), t, n, seed=seed,
                                     params={"alpha": 0.3, "theta": t}, threshold=threshold))
