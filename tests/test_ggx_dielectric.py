@@ -323,3 +323,25 @@ def test_parameters_from_scene_param_and_constructor(tmp_path):
                    '<boolean name="sample_visible" value="false"/></bsdf></mesh></scene>')
     (g,) = [b for b in bl.load_scene(str(xml)).bsdfs if isinstance(b, RoughDielectric)]
     assert (g.distribution, g.alpha_u, g.alpha_v, g.sample_visible) == ("ggx", 0.1, 0.3, False)
+
+
+@pytest.mark.filterwarnings("ignore:.*creates energy")
+def test_chi2_samples_against_the_ggx_glass(tmp_path):
+    """``chi2 --samples FILE --against roughdielectric --param distribution=ggx …``: a correct anisotropic GGX file
+    passes against the same parameters and fails against the default (Beckmann) glass."""
+    from brdflab.judges.samples.bsdf_checks import check_samples
+
+    glass = RoughDielectric(0.2, 1.5, 1.0, distribution="ggx", alpha_u=0.1, alpha_v=0.3)
+    rng = np.random.default_rng(4805)
+    rows = []
+    for th in (30.0, 150.0):
+        t = np.radians(th)
+        wi = np.tile([np.sin(t) * np.cos(0.7), np.sin(t) * np.sin(0.7), np.cos(t)], (20_000, 1))
+        s = glass.sample(wi, rng.random((20_000, 3)))
+        rows.append(np.column_stack([wi, np.where((s.pdf > 0)[:, None], s.wo, 0.0), s.pdf, s.weight]))
+    path = tmp_path / "ggx.txt"
+    np.savetxt(path, np.concatenate(rows), fmt="%.9g")
+    params = {"intIOR": 1.5, "extIOR": 1.0, "distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.3}
+    r = check_samples(path, "roughdielectric", alpha=0.2, params=params)
+    assert r.passed, r.messages()
+    assert not check_samples(path, "roughdielectric", alpha=0.2, params={"intIOR": 1.5, "extIOR": 1.0}).passed
