@@ -25,18 +25,13 @@ from brdflab.errors import BrdflabError
 from brdflab.judges.material import transmission_controls as tc
 from brdflab.judges.material.chi2 import SIGNIFICANCE, sidak
 from brdflab.math import warps
+from tests.test_ggx_conductor import CONFIGS as CONDUCTOR_CONFIGS
 
 L = np.longdouble
-#: One family-wise significance of 0.01 for the 30 chi-square tests of correct samplers below (Šidák).
-THRESHOLD = sidak(SIGNIFICANCE, 30)
-CONFIGS = {
-    "ggx visible": dict(distribution="ggx"),
-    "ggx D cos": dict(distribution="ggx", sample_visible=False),
-    "beckmann visible": dict(distribution="beckmann", sample_visible=True),
-    "ggx anisotropic visible": dict(distribution="ggx", alpha_u=0.08, alpha_v=0.4),
-    "beckmann anisotropic visible": dict(distribution="beckmann", alpha_u=0.1, alpha_v=0.4, sample_visible=True),
-    "beckmann anisotropic D cos": dict(distribution="beckmann", alpha_u=0.3, alpha_v=0.05),
-}
+#: The conductor's configurations without its Fresnel options: GGX and Beckmann, visible normals or not, anisotropic.
+CONFIGS = {k: v for k, v in CONDUCTOR_CONFIGS.items() if "eta" not in v}
+#: One family-wise significance of 0.01 for the chi-square tests of correct samplers below (Šidák).
+THRESHOLD = sidak(SIGNIFICANCE, 5 * len(CONFIGS))
 #: ∫ f |cos θ_o| dω_o of RoughDielectric(intIOR=1.5, extIOR=1, ggx, α_u = 0.15, α_v = 0.45) at ω_i of θ, φ = 0.5 rad
 #: (module docstring; ±2e-6).
 GOLDEN_ALBEDO = {40.0: 0.4550918, 140.0: 1.3636159}
