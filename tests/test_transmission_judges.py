@@ -137,7 +137,7 @@ def test_furnace_negative_control():
 
 
 def test_battery_runs_delta_and_transmission():
-    """The battery routes delta BSDFs to the delta judge, tests two-sided ones from inside, and runs the four
+    """The battery routes delta BSDFs to the delta judge, tests two-sided ones from inside, and runs the six
     negative controls when a transmissive BSDF is in it (each rejected)."""
     bat = run_battery(n=20_000, bsdfs=["dielectric", "roughdielectric"], warp_names=[], alphas=(0.3,),
                       thetas=(30.0,), consistency_thetas=(30.0,), consistency_alphas=(0.3,), furnace_alphas=(0.3,),
@@ -146,7 +146,7 @@ def test_battery_runs_delta_and_transmission():
     names = {(r.name, r.params["theta"]) for r in bat.chi2}
     assert names == {("dielectric", 30.0), ("dielectric", 150.0), ("roughdielectric", 30.0),
                      ("roughdielectric", 150.0)}
-    assert len(bat.negative_control) == 2 + 3 + 8 and not any(r.passed for r in bat.negative_control)
+    assert len(bat.negative_control) == 2 + 3 + 12 and not any(r.passed for r in bat.negative_control)
     assert {p.theta for p in bat.albedo} == {0.0, 100.0, 120.0, 150.0, 175.0}
     assert [r.theta for r in bat.consistency] == [30.0, 150.0]
 
