@@ -57,6 +57,16 @@ def write_scene(tmp_path: Path, body: str, files: dict[str, str] | None = None, 
     return path
 
 
+def sphere_scene(tmp_path: Path, bsdf_xml: str) -> Path:
+    """An 8×6 direct_mis scene of the bundled left sphere with ``bsdf_xml`` (a ``<bsdf …>…</bsdf>`` element)."""
+    sphere = ROOT / "scenes" / "cbox" / "meshes" / "sphere_left.obj"
+    xml = tmp_path / "s.xml"
+    xml.write_text('<scene><integrator type="direct_mis"/><camera type="perspective"><integer name="width" '
+                   'value="8"/><integer name="height" value="6"/></camera><mesh type="obj">'
+                   f'<string name="filename" value="{sphere}"/>{bsdf_xml}</mesh></scene>')
+    return xml
+
+
 CAMERA = """<camera type="perspective">
   <transform name="toWorld"><lookat origin="0,3,0.001" target="0,0,0" up="0,0,1"/></transform>
   <float name="fov" value="60"/><integer name="width" value="32"/><integer name="height" value="24"/>

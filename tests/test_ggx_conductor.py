@@ -10,8 +10,6 @@ bit for bit (against the formulas of the course model written out below).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import mpmath as mp
 import numpy as np
 import pytest
@@ -23,6 +21,7 @@ from brdflab.bsdf import microfacet as mf
 from brdflab.bsdf.fresnel import fresnel_conductor, fresnel_schlick
 from brdflab.errors import BrdflabError
 from brdflab.judges.material.entries import CONDUCTOR_CONTROLS
+from tests.conftest import sphere_scene
 
 CONFIGS = {
     "ggx visible": dict(distribution="ggx"),
@@ -203,15 +202,9 @@ def test_parameters_from_scene_param_and_constructor(tmp_path):
                       ({"alpha_u": "-1"}, "alpha_u"), ({"eta": "0,1,1"}, "eta"), ({"R0": "0.5", "eta": "1"}, "R0")]:
         with pytest.raises(BrdflabError, match=word):
             make_bsdf("roughconductor", bad)
-    xml = tmp_path / "s.xml"
-    sphere = Path(__file__).resolve().parent.parent / "scenes" / "cbox" / "meshes" / "sphere_left.obj"
-    xml.write_text('<scene><integrator type="direct_mis"/><camera type="perspective"><integer name="width" '
-                   'value="8"/><integer name="height" value="6"/></camera><mesh type="obj">'
-                   f'<string name="filename" value="{sphere}"/>'
-                   '<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
-                   '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
-                   '<color name="eta" value="0.2, 0.92, 1.1"/><color name="k" value="3.9, 2.45, 2.14"/></bsdf>'
-                   '</mesh></scene>')
+    xml = sphere_scene(tmp_path, '<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+                       '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
+                       '<color name="eta" value="0.2, 0.92, 1.1"/><color name="k" value="3.9, 2.45, 2.14"/></bsdf>')
     scene = bl.load_scene(str(xml))
     (b,) = [b for b in scene.bsdfs if isinstance(b, RoughConductor)]
     assert b.distribution == "ggx" and (b.alpha_u, b.alpha_v) == (0.1, 0.3)

@@ -11,8 +11,6 @@ bit (against the formulas of the course's model written out below).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -25,6 +23,7 @@ from brdflab.errors import BrdflabError
 from brdflab.judges.material import transmission_controls as tc
 from brdflab.judges.material.chi2 import SIGNIFICANCE, sidak
 from brdflab.math import warps
+from tests.conftest import sphere_scene
 from tests.test_ggx_conductor import CONFIGS as CONDUCTOR_CONFIGS
 
 L = np.longdouble
@@ -308,14 +307,9 @@ def test_parameters_from_scene_param_and_constructor(tmp_path):
                 make_bsdf(name, bad)
     with pytest.raises(ValueError, match="distribution"):
         RoughDielectric(distribution="phong")
-    xml = tmp_path / "s.xml"
-    sphere = Path(__file__).resolve().parent.parent / "scenes" / "cbox" / "meshes" / "sphere_left.obj"
-    xml.write_text('<scene><integrator type="direct_mis"/><camera type="perspective"><integer name="width" '
-                   'value="8"/><integer name="height" value="6"/></camera><mesh type="obj">'
-                   f'<string name="filename" value="{sphere}"/>'
-                   '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/>'
-                   '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
-                   '<boolean name="sample_visible" value="false"/></bsdf></mesh></scene>')
+    xml = sphere_scene(tmp_path, '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/>'
+                       '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
+                       '<boolean name="sample_visible" value="false"/></bsdf>')
     (g,) = [b for b in bl.load_scene(str(xml)).bsdfs if isinstance(b, RoughDielectric)]
     assert (g.distribution, g.alpha_u, g.alpha_v, g.sample_visible) == ("ggx", 0.1, 0.3, False)
 
