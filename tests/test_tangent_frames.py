@@ -47,8 +47,8 @@ def scene_xml(objs: dict[str, str], bsdf: str, integrator: str = "direct_ems", s
     return body
 
 
-def aniso(au: float, av: float, dist: str = "ggx") -> str:
-    return (f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/>'
+def aniso(au: float, av: float, dist: str = "ggx", kind: str = "roughconductor") -> str:
+    return (f'<bsdf type="{kind}"><string name="distribution" value="{dist}"/>'
             f'<float name="alpha_u" value="{au}"/><float name="alpha_v" value="{av}"/></bsdf>')
 
 
@@ -123,7 +123,7 @@ def test_frame_follows_the_uv_tangent(tmp_path, engine, monkeypatch):
     assert np.abs(s @ want_s).max() < 1e-9
 
 
-def render_pair(tmp_path, name: str, integrator: str = "direct_ems"):
+def render_pair(tmp_path, name: str, integrator: str = "direct_ems", kind: str = "roughconductor"):
     """(quad with uvs, α_u 0.08 / α_v 0.4; the same quad with uvs rotated by 90° and the α swapped; the rotated
     quad with the α not swapped), each rendered with the same seed."""
     from brdflab.api import render
@@ -131,7 +131,7 @@ def render_pair(tmp_path, name: str, integrator: str = "direct_ems"):
     out = []
     for i, (uv_of, a) in enumerate([(rotated_uv(0), (0.08, 0.4)), (rotated_uv(np.pi / 2), (0.4, 0.08)),
                                     (rotated_uv(np.pi / 2), (0.08, 0.4))]):
-        sc = load(tmp_path, f"{name}{i}", {"q.obj": quad_obj(uv_of)}, aniso(*a), integrator=integrator)
+        sc = load(tmp_path, f"{name}{i}", {"q.obj": quad_obj(uv_of)}, aniso(*a, kind=kind), integrator=integrator)
         out.append(render(sc, spp=4, seed=7, workers=1))
     return out
 
@@ -148,6 +148,16 @@ def test_uv_rotated_by_90_degrees_is_alpha_swapped(tmp_path, engine):
     assert base.max() > 0.05
     np.testing.assert_allclose(swapped, base, rtol=1e-5, atol=1e-7)
     assert np.abs(unswapped - base).max() > 0.2 * base.max()
+
+
+@pytest.mark.parametrize("kind", ["roughsubstrate", "roughdielectric"])
+def test_anisotropic_coats_and_glass_follow_the_uv_tangent_too(tmp_path, kind):
+    """The substrate's coat and rough glass take α_u/α_v too: their frame follows dp/du as the conductor's."""
+    with kernels.use_engine("numpy"):
+        base, swapped, unswapped = render_pair(tmp_path, kind, kind=kind)
+    assert base.max() > 0
+    np.testing.assert_allclose(swapped, base, rtol=1e-5, atol=1e-7 * base.max())
+    assert np.abs(unswapped - base).max() > 0.1 * base.max()
 
 
 def test_without_the_uv_frame_the_rotation_shows(tmp_path, monkeypatch):

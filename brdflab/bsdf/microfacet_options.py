@@ -80,6 +80,20 @@ class MicrofacetOptions:
         return (self.distribution, self.alpha_u, self.alpha_v, self.sample_visible)
 
     @property
+    def anisotropic(self) -> bool:
+        """True when α_u and α_v may differ (one of them given, and not both equal): the shading frame then
+        follows the uv tangent (module docstring)."""
+        au, av = self.alpha_u, self.alpha_v
+        if au is None and av is None:
+            return False
+        if au is None or av is None:
+            if not self.alpha.constant:
+                return True
+            a = float(self.alpha.luminance())
+            au, av = (a if au is None else au), (a if av is None else av)
+        return au != av
+
+    @property
     def isotropic_beckmann(self) -> bool:
         """Beckmann with one α: the course's D and G1 functions serve it."""
         return self.distribution == mf.BECKMANN and self.alpha_u is None and self.alpha_v is None

@@ -171,20 +171,6 @@ class RoughConductor(MicrofacetOptions, BSDF):
         return (self.distribution == mf.BECKMANN and self.alpha_u is None and self.alpha_v is None
                 and not self.sample_visible and self.eta is None)
 
-    @property
-    def anisotropic(self) -> bool:
-        """True when α_u and α_v may differ (one of them given, and not both equal): the shading frame then
-        follows the uv tangent (module docstring)."""
-        au, av = self.alpha_u, self.alpha_v
-        if au is None and av is None:
-            return False
-        if au is None or av is None:
-            if not self.alpha.constant:
-                return True
-            a = float(self.alpha.luminance())
-            au, av = (a if au is None else au), (a if av is None else av)
-        return au != av
-
     def _fresnel(self, hi: np.ndarray, uv: np.ndarray | None, n: int, s: np.ndarray) -> np.ndarray:
         c = np.clip(hi, 0.0, 1.0)
         if self.eta is None:
