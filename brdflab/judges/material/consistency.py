@@ -26,7 +26,7 @@ import numpy as np
 
 from brdflab.judges.core.guard import CheckedBSDF, PluginFault, bsdf_params, describe, format_params
 from brdflab.judges.core.seeding import bsdf_identity, test_seed
-from brdflab.judges.material.chi2 import best_frame, incident, integrate_sphere_bins, pilot_bins, to_angles
+from brdflab.judges.material.chi2 import best_frame, incident
 from brdflab.judges.material.furnace import energy_scale
 from brdflab.math import warps
 
@@ -120,27 +120,18 @@ def _relerr(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(a == b, 0.0, e)
 
 
-def pdf_mass(bsdf, wi1: np.ndarray, pilot_wo: np.ndarray, rng: np.random.Generator,
-             shape: tuple[int, int] = (16, 24), valid: float | None = None) -> tuple[float, float]:
-    """∫ p(ω_i, ·) dω over the sphere (and its error) on bins placed by ``pilot_wo`` plus uniform directions.
-
-    With ``valid`` (the fraction of samples that did not fail), bins about other axes are tried when those about
-    the normal miss mass the pilot saw (:func:`~brdflab.judges.material.chi2.best_frame`).
-    """
+def pdf_mass(bsdf, wi1: np.ndarray, pilot_wo: np.ndarray, rng: np.random.Generator, valid: float,
+             shape: tuple[int, int] = (16, 24)) -> tuple[float, float]:
+    """∫ p(ω_i, ·) dω over the sphere (and its error) on bins placed by ``pilot_wo`` plus uniform directions;
+    about other axes when those about the normal miss mass the pilot saw against ``valid``, the fraction of
+    samples that did not fail (:func:`~brdflab.judges.material.chi2.best_frame`)."""
     mix = warps.square_to_uniform_sphere(rng.random((max(len(pilot_wo) // 9, 500), 2)))
-    both = np.concatenate([pilot_wo, mix])
-    n_pilot = len(pilot_wo)
 
     def pdf(w):
         return bsdf.pdf(np.ascontiguousarray(np.broadcast_to(wi1, (len(w), 3))), w)
 
-    if valid is None:  # the normal's bins only
-        th, ph = to_angles(both, np.array([0.0, 0.0, 1.0]))
-        te, pe = pilot_bins(th, ph, *shape, split_horizon=bool(getattr(bsdf, "has_transmission", False)))
-        val, err = integrate_sphere_bins(pdf, te, pe, n=10**6)
-    else:
-        val, err = best_frame(both, n_pilot, valid, pdf, *shape, bool(getattr(bsdf, "has_transmission", False)),
-                              False, 10**6)[3:5]
+    val, err = best_frame(np.concatenate([pilot_wo, mix]), len(pilot_wo), valid, pdf, *shape,
+                          bool(getattr(bsdf, "has_transmission", False)), False, 10**6)[3:5]
     return float(val.sum()), float(err.sum())
 
 
@@ -232,7 +223,7 @@ def _check(b: CheckedBSDF, name, theta, n, seed, params, rng, rng_mass, rng_rec)
         i = int(np.argmax(perr > PDF_RTOL))
         first(perr > PDF_RTOL, f"sample pdf {s.pdf[i]:.6g} ≠ pdf() {p_eval[i]:.6g}")
     pilot = s.wo[ok][: max(n // 4, 2000)]
-    integral, ierr = pdf_mass(b, wi1, pilot, rng_mass, valid=float(ok.mean()))
+    integral, ierr = pdf_mass(b, wi1, pilot, rng_mass, float(ok.mean()))
     # Reciprocity on uniform upper-hemisphere pairs and on the sampled pairs (where f matters).
     m = min(n, 20_000)
     pairs = warps.square_to_uniform_sphere if transmits else warps.square_to_uniform_hemisphere
